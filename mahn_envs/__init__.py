@@ -1,0 +1,1 @@
+"""mahn_envs: the patrol-and-return multirobot task as PettingZoo environments."""

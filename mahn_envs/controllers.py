@@ -1,0 +1,103 @@
+"""Team controllers as plain arrays (see core.controller for the layout) and their file format.
+
+The same `TeamControllers` drives the batch core, the PettingZoo env (`ControllerPolicy`) and real robots.
+Files are JSON (human-readable, versioned) so a champion can be inspected, diffed and loaded anywhere.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, Mapping
+
+import numpy as np
+
+N_INPUTS = 7
+N_HIDDEN = 9
+N_OUTPUTS = 3
+_FIELDS = ("w_ih", "w_hh", "w_ho", "b_h", "b_o")
+
+
+@dataclass(frozen=True, eq=False)
+class TeamControllers:
+    """Controllers of one team (arrays (R, K, ...)) or of a batch of teams (arrays (B, R, K, ...)).
+
+    K = 2 brains means situational policy geometry (switch at the signal, fresh state);
+    K = 1 means standard geometry (the signal is input 6).
+    """
+
+    w_ih: np.ndarray
+    w_hh: np.ndarray
+    w_ho: np.ndarray
+    b_h: np.ndarray
+    b_o: np.ndarray
+
+    def __post_init__(self) -> None:
+        arrays = {}
+        for name in _FIELDS:
+            a = np.ascontiguousarray(getattr(self, name), dtype=np.float32)
+            if not np.all(np.isfinite(a)):
+                raise ValueError(f"controller array {name!r} contains NaN or infinity")
+            arrays[name] = a
+            object.__setattr__(self, name, a)
+        w_ih = arrays["w_ih"]
+        if w_ih.ndim not in (4, 5):
+            raise ValueError(f"controller array 'w_ih' must have shape (R, K, H, 7) or (B, R, K, H, 7), "
+                             f"got {w_ih.shape}")
+        lead = w_ih.shape[:-2]
+        n_hidden = w_ih.shape[-2]
+        expected = {"w_ih": lead + (n_hidden, N_INPUTS), "w_hh": lead + (n_hidden, n_hidden),
+                    "w_ho": lead + (N_OUTPUTS, n_hidden), "b_h": lead + (n_hidden,), "b_o": lead + (N_OUTPUTS,)}
+        for name, shape in expected.items():
+            if arrays[name].shape != shape:
+                raise ValueError(f"controller array {name!r} has shape {arrays[name].shape}, expected {shape}")
+        if lead[-1] not in (1, 2):
+            raise ValueError(f"controllers must have 1 (standard) or 2 (situational) brains, got {lead[-1]}")
+
+    @property
+    def batched(self) -> bool:
+        return self.w_ih.ndim == 5
+
+    @property
+    def n_robots(self) -> int:
+        return self.w_ih.shape[-4]
+
+    @property
+    def n_brains(self) -> int:
+        return self.w_ih.shape[-3]
+
+    @property
+    def mode(self) -> str:
+        return "situational" if self.n_brains == 2 else "standard"
+
+    def as_batch(self) -> "TeamControllers":
+        """A batch of one team (no copy when already batched)."""
+        if self.batched:
+            return self
+        return TeamControllers(*(getattr(self, f)[None] for f in _FIELDS))
+
+    def team(self, index: int) -> "TeamControllers":
+        if not self.batched:
+            raise ValueError("team(index) needs a batch of teams")
+        return TeamControllers(*(getattr(self, f)[index] for f in _FIELDS))
+
+    @staticmethod
+    def stack(teams: "list[TeamControllers]") -> "TeamControllers":
+        return TeamControllers(*(np.stack([getattr(t, f) for t in teams]) for f in _FIELDS))
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain JSON: nested lists of float32 values (exact through float64 JSON round trip)."""
+        return {"mode": self.mode, "n_robots": self.n_robots, "n_brains": self.n_brains,
+                "layout": "w_ih[r][k][hidden][input], w_hh[r][k][target][source], w_ho[r][k][output][hidden], "
+                          "b_h[r][k][hidden], b_o[r][k][output]; inputs: 6 IR (left first) then signal; "
+                          "outputs: left, forward, right",
+                **{f: getattr(self, f).astype(np.float64).tolist() for f in _FIELDS}}
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any]) -> "TeamControllers":
+        missing = [f for f in _FIELDS if f not in data]
+        if missing:
+            raise ValueError(f"controllers: missing field(s) {missing}")
+        try:
+            arrays = [np.asarray(data[f], dtype=np.float32) for f in _FIELDS]
+        except (TypeError, ValueError) as exc:
+            raise ValueError(f"controllers: arrays are not numeric ({exc})") from exc
+        return cls(*arrays)

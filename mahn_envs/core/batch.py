@@ -1,0 +1,227 @@
+"""BatchSim: B independent patrol-and-return episodes of R robots as arrays, stepped by compiled kernels.
+
+This is the one implementation of the task.  The PettingZoo env is BatchSim with B = 1, the trainer's
+evaluator runs a generation of teams through `run_controllers`, and the RL vector env steps B episodes at once.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Optional, Sequence
+
+import numpy as np
+
+from ..controllers import TeamControllers
+from ..khepera import DEFAULT_MODEL, KheperaModel
+from ..maps import World, load_map
+from . import kernels
+from . import task as T
+from .geometry import touches_any_wall, wall_boxes
+from .params import TaskParams
+
+
+@dataclass
+class RunResult:
+    """Outcome of whole episodes: team fitness and `solved` per episode; trajectories if recorded.
+
+    trajectories[b, t, r] = (x, y, heading, action) after tick t (t = 0: start; action -1 there).
+    """
+
+    fitness: np.ndarray
+    solved: np.ndarray
+    collisions: np.ndarray
+    trajectories: Optional[np.ndarray] = None
+
+
+def validate_poses(world: World, poses: np.ndarray, radius: float, n_robots: int) -> np.ndarray:
+    """Check user-given poses: finite, inside the arena's extent and not overlapping a wall."""
+    arr = np.asarray(poses, dtype=np.float64)
+    if arr.shape[-2:] != (n_robots, 3):
+        raise ValueError(f"poses must have shape (..., {n_robots}, 3) of (x, y, heading), got {arr.shape}")
+    flat = arr.reshape(-1, n_robots, 3)
+    xmin, ymin, xmax, ymax = world.bounds
+    boxes = wall_boxes(world.walls)
+    for e in range(flat.shape[0]):
+        for r in range(n_robots):
+            x, y, h = flat[e, r]
+            if not (np.isfinite(x) and np.isfinite(y) and np.isfinite(h)):
+                raise ValueError(f"pose of robot {r} is not finite: ({x}, {y}, {h})")
+            if not (xmin <= x <= xmax and ymin <= y <= ymax):
+                raise ValueError(f"pose of robot {r} ({x:.3f}, {y:.3f}) lies outside map {world.name!r} "
+                                 f"[{xmin}, {xmax}] x [{ymin}, {ymax}]")
+            if touches_any_wall(float(x), float(y), radius, world.walls, boxes):
+                raise ValueError(f"pose of robot {r} ({x:.3f}, {y:.3f}) overlaps a wall of map {world.name!r}")
+    return arr
+
+
+class BatchSim:
+    """B episodes of the task in lock-step.  All randomness flows from the seed given to `reset`."""
+
+    def __init__(self, world: "World | str" = "plus", n_episodes: int = 1, params: Optional[TaskParams] = None,
+                 model: KheperaModel = DEFAULT_MODEL) -> None:
+        self.world = load_map(world)
+        self.params = params if params is not None else TaskParams()
+        self.model = model
+        if isinstance(n_episodes, bool) or not isinstance(n_episodes, (int, np.integer)) or n_episodes < 1:
+            raise ValueError(f"n_episodes must be a positive integer, got {n_episodes!r}")
+        n_robots = self.world.n_robots
+        n_pois = self.world.pois.shape[0]
+        if n_pois != n_robots:
+            raise ValueError(f"map {self.world.name!r} has {n_robots} start poses but {n_pois} POIs: the patrol "
+                             "fitness (one POI per robot, as in the original) needs as many robots as POIs")
+        self.n_episodes = int(n_episodes)
+        self.n_robots = n_robots
+        self._pvec = self.params.vector(model)
+        self._walls = np.ascontiguousarray(self.world.walls)
+        self._boxes = np.ascontiguousarray(wall_boxes(self._walls))
+        self._angles = np.asarray(model.sensor_angles, dtype=np.float64)
+        self._pois = np.ascontiguousarray(self.world.pois)
+        self._home = np.ascontiguousarray(self.world.home)
+        B, R = self.n_episodes, n_robots
+        self.pose = np.zeros((B, R, 4))
+        self.raw = np.zeros((B, R, 6))
+        self.obs = np.zeros((B, R, 7), dtype=np.float32)
+        self.racc = np.zeros((B, R, 4))
+        self.rflag = np.zeros((B, R, 3), dtype=np.uint8)
+        self.goto = np.zeros((B, n_pois))
+        self.est = np.zeros((B, 3), dtype=np.int64)
+        self.prev_fit = np.zeros(B)
+        self.rewards = np.zeros(B)
+        self.solved = np.zeros(B, dtype=np.bool_)
+        self.keys = np.arange(B, dtype=np.uint64)
+        self.seed = 0
+        self._others = np.zeros((R, 2))
+        self._cand = np.zeros(self._walls.shape[0], dtype=np.int64)
+        self._reset_done = False
+
+    # ------------------------------------------------------------------ episode control
+    def start_poses(self, seed: int, episode_keys: np.ndarray) -> np.ndarray:
+        """The map's start poses, jittered per episode when the params ask for it (deterministic per key)."""
+        base = np.broadcast_to(self.world.starts, (len(episode_keys), self.n_robots, 3)).copy()
+        jx, jh = self.params.start_jitter_xy, self.params.start_jitter_heading
+        if jx > 0 or jh > 0:
+            for e, key in enumerate(episode_keys):
+                rng = np.random.default_rng([int(seed) & 0xFFFFFFFF, int(key) & 0xFFFFFFFF, 0x5EED])
+                base[e, :, :2] += rng.uniform(-jx, jx, size=(self.n_robots, 2))
+                base[e, :, 2] += rng.uniform(-jh, jh, size=self.n_robots)
+        return base
+
+    def reset(self, seed: int = 0, poses: Optional[np.ndarray] = None,
+              episode_keys: Optional[Sequence[int]] = None) -> np.ndarray:
+        """Place the robots and sense; returns observations (B, R, 7).
+
+        `episode_keys` name the episodes for the random streams (default 0..B-1): the same key and seed give
+        the same noise whatever batch the episode runs in.
+        """
+        if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+            raise ValueError(f"seed must be a non-negative integer, got {seed!r}")
+        self.seed = int(seed)
+        if episode_keys is None:
+            self.keys = np.arange(self.n_episodes, dtype=np.uint64)
+        else:
+            keys = np.asarray(episode_keys, dtype=np.int64)
+            if keys.shape != (self.n_episodes,) or np.any(keys < 0):
+                raise ValueError(f"episode_keys must be {self.n_episodes} non-negative integers")
+            self.keys = keys.astype(np.uint64)
+        if poses is None:
+            start = self.start_poses(self.seed, self.keys)
+        else:
+            start = validate_poses(self.world, poses, self.model.radius, self.n_robots)
+            start = np.broadcast_to(start, (self.n_episodes, self.n_robots, 3))
+        self.pose[:] = 0.0
+        self.pose[:, :, :3] = start
+        self.raw[:] = 0.0
+        self.obs[:] = 0.0
+        self.racc[:] = 0.0
+        self.rflag[:] = 0
+        self.goto[:] = 0.0
+        self.est[:] = 0
+        self.prev_fit[:] = 0.0
+        self.rewards[:] = 0.0
+        self.solved[:] = False
+        kernels.sense_all(1, self.pose, self.raw, self.obs, self.rflag, self._walls, self._boxes, self._angles,
+                          self._pvec, self.seed, self.keys, self._others, self._cand)
+        self._reset_done = True
+        return self.obs
+
+    @property
+    def tick(self) -> int:
+        return int(self.est[0, T.E_TICK])
+
+    @property
+    def done(self) -> bool:
+        return self.tick >= self.params.max_cycles
+
+    def check_actions(self, actions: np.ndarray) -> np.ndarray:
+        a = np.asarray(actions)
+        if a.shape != (self.n_episodes, self.n_robots):
+            raise ValueError(f"actions must have shape ({self.n_episodes}, {self.n_robots}), got {a.shape}")
+        if a.dtype.kind not in "iu":
+            if a.dtype.kind == "f" and np.all(np.isfinite(a)) and np.all(a == np.round(a)):
+                a = a.astype(np.int64)
+            else:
+                raise ValueError(f"actions must be integers 0 (left), 1 (forward), 2 (right); got dtype {a.dtype}")
+        if a.size and (a.min() < 0 or a.max() > 2):
+            raise ValueError(f"actions must be 0 (left), 1 (forward) or 2 (right); got values {np.unique(a)}")
+        return np.ascontiguousarray(a, dtype=np.int64)
+
+    def step(self, actions: np.ndarray, validate: bool = True) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Advance every episode one tick.  Returns (obs (B,R,7), rewards (B,), solved (B,)).
+
+        Rewards are the change of the team fitness "if the episode ended now", so they sum to the final team
+        fitness exactly (up to float rounding of the telescoping sum).
+        """
+        if not self._reset_done:
+            raise RuntimeError("call reset() before step()")
+        if self.done:
+            raise RuntimeError(f"the episode is over (tick {self.tick} of {self.params.max_cycles}); call reset()")
+        a = self.check_actions(actions) if validate else actions
+        kernels.step_all(a, self.pose, self.raw, self.obs, self.racc, self.rflag, self.goto, self.est,
+                         self.prev_fit, self.rewards, self.solved, self._walls, self._boxes, self._angles,
+                         self._pois, self._home, self._pvec, self.seed, self.keys, self._others, self._cand)
+        return self.obs, self.rewards, self.solved
+
+    def give_signal(self, episode: int, robot: int, on: bool = True) -> None:
+        """Set or clear one robot's come-home signal by hand (operator protocols; auto_signal=False)."""
+        self.rflag[episode, robot, T.F_SIGNAL] = 1 if on else 0
+        self.obs[episode, robot, 6] = 1.0 if on else 0.0
+
+    def team_fitness(self) -> tuple[np.ndarray, np.ndarray]:
+        """Team fitness and `solved` of each episode as things stand (final once the episode is done)."""
+        return self.prev_fit.copy(), self.solved.copy()
+
+    # ------------------------------------------------------------------ controllers in the loop
+    def run_controllers(self, controllers: TeamControllers, seed: int = 0, poses: Optional[np.ndarray] = None,
+                        episode_keys: Optional[Sequence[int]] = None, record: bool = False) -> RunResult:
+        """Run whole episodes with evolved controllers inside the compiled loop (both cores).
+
+        A single team is run in every episode; a batch of B teams runs team b in episode b.
+        """
+        ctrl = controllers.as_batch()
+        if ctrl.n_robots != self.n_robots:
+            raise ValueError(f"controllers are for {ctrl.n_robots} robots, map {self.world.name!r} has "
+                             f"{self.n_robots}")
+        n_teams = ctrl.w_ih.shape[0]
+        if n_teams not in (1, self.n_episodes):
+            raise ValueError(f"{n_teams} teams for {self.n_episodes} episodes: give one team or one per episode")
+        if n_teams == 1 and self.n_episodes > 1:
+            ctrl = TeamControllers(*(np.ascontiguousarray(np.broadcast_to(getattr(ctrl, f),
+                                     (self.n_episodes,) + getattr(ctrl, f).shape[1:]))
+                                     for f in ("w_ih", "w_hh", "w_ho", "b_h", "b_o")))
+        self.reset(seed=seed, poses=poses, episode_keys=episode_keys)
+        B, R = self.n_episodes, self.n_robots
+        n_hidden = ctrl.w_hh.shape[-1]
+        hid = np.zeros((B, R, n_hidden), dtype=np.float32)
+        out = np.zeros((B, R, 3), dtype=np.float32)
+        brain = np.zeros((B, R), dtype=np.int64)
+        fitness = np.zeros(B)
+        solved = np.zeros(B, dtype=np.bool_)
+        T_ = self.params.max_cycles
+        traj = np.zeros((B, T_ + 1, R, 4)) if record else np.zeros((1, 1, 1, 4))
+        kernels.run_controllers(self.pose, self.raw, self.obs, self.racc, self.rflag, self.goto, self.est,
+                                self._walls, self._boxes, self._angles, self._pois, self._home, self._pvec,
+                                self.seed, self.keys, ctrl.w_ih, ctrl.w_hh, ctrl.w_ho, ctrl.b_h, ctrl.b_o,
+                                hid, out, brain, fitness, solved, traj, record)
+        self.prev_fit[:] = fitness
+        self.solved[:] = solved
+        return RunResult(fitness=fitness, solved=solved, collisions=self.racc[:, :, T.R_COLL].astype(np.int64),
+                         trajectories=traj if record else None)

@@ -1,0 +1,122 @@
+"""Ray casts and wall contacts, compiled.  The one place the task's geometry is computed.
+
+The tests compare these kernels against brute-force references (tests/envs/test_geometry.py); the parameter
+tests below use the original simulator's strict inequalities so sensor readings match it exactly.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+
+def wall_boxes(walls: np.ndarray) -> np.ndarray:
+    """Axis-aligned boxes (xmin, ymin, xmax, ymax) of the walls, used to skip walls out of sensor reach."""
+    w = np.asarray(walls, dtype=np.float64)
+    return np.stack([np.minimum(w[:, 0], w[:, 2]), np.minimum(w[:, 1], w[:, 3]),
+                     np.maximum(w[:, 0], w[:, 2]), np.maximum(w[:, 1], w[:, 3])], axis=1)
+
+
+@njit(cache=True, inline="always")
+def ray_wall(cx, cy, dx, dy, x1, y1, x2, y2):
+    """Fraction along the ray (c, c + d) where it crosses the wall, or 2.0 for no hit.
+
+    Strict 0 < r < 1 and 0 < s < 1, parallel segments never hit: the original's test.
+    """
+    ex = x2 - x1
+    ey = y2 - y1
+    denom = dx * ey - dy * ex
+    if denom == 0.0:
+        return 2.0
+    ax = x1 - cx
+    ay = y1 - cy
+    r = (ax * ey - ay * ex) / denom
+    s = (ax * dy - ay * dx) / denom
+    if 0.0 < r < 1.0 and 0.0 < s < 1.0:
+        return r
+    return 2.0
+
+
+@njit(cache=True, inline="always")
+def ray_circle(cx, cy, ux, uy, qx, qy, radius):
+    """Distance along the unit ray u from c to the first crossing of the circle (q, radius); inf if none."""
+    px = qx - cx
+    py = qy - cy
+    b = ux * px + uy * py
+    c = px * px + py * py - radius * radius
+    if c <= 0.0:  # the ray starts inside the circle (overlapping robots): no reading from it
+        return math.inf
+    disc = b * b - c
+    if disc < 0.0 or b <= 0.0:
+        return math.inf
+    return b - math.sqrt(disc)
+
+
+@njit(cache=True, inline="always")
+def touches_wall(cx, cy, radius, x1, y1, x2, y2):
+    """True when a circle at c is closer than `radius` to the wall: projection test, then endpoints."""
+    ex = x2 - x1
+    ey = y2 - y1
+    len2 = ex * ex + ey * ey
+    r = ((cx - x1) * ex + (cy - y1) * ey) / len2
+    if 0.0 <= r <= 1.0:
+        cross = (cx - x1) * ey - (cy - y1) * ex
+        return abs(cross) / math.sqrt(len2) < radius
+    d1 = (cx - x1) * (cx - x1) + (cy - y1) * (cy - y1)
+    d2 = (cx - x2) * (cx - x2) + (cy - y2) * (cy - y2)
+    return d1 < radius * radius or d2 < radius * radius
+
+
+@njit(cache=True)
+def touches_any_wall(cx, cy, radius, walls, boxes):
+    for w in range(walls.shape[0]):
+        if (cx + radius < boxes[w, 0] or cx - radius > boxes[w, 2]
+                or cy + radius < boxes[w, 1] or cy - radius > boxes[w, 3]):
+            continue
+        if touches_wall(cx, cy, radius, walls[w, 0], walls[w, 1], walls[w, 2], walls[w, 3]):
+            return True
+    return False
+
+
+@njit(cache=True)
+def cast_rays(cx, cy, heading, angles, max_range, walls, boxes, others, n_others, robot_radius, out, cand):
+    """Centre-to-hit distance of each ray (max_range when nothing is hit) against walls and other robots.
+
+    `others` holds (x, y) of robots that can be seen; only the first n_others rows are used.  `cand` is an
+    int scratch array of at least len(walls) entries (passed in so the hot loop never allocates).
+    """
+    n_rays = angles.shape[0]
+    xmin = cx - max_range
+    xmax = cx + max_range
+    ymin = cy - max_range
+    ymax = cy + max_range
+    n_cand = 0
+    for w in range(walls.shape[0]):
+        if boxes[w, 2] < xmin or boxes[w, 0] > xmax or boxes[w, 3] < ymin or boxes[w, 1] > ymax:
+            continue
+        cand[n_cand] = w
+        n_cand += 1
+    for j in range(n_rays):
+        a = heading + angles[j]
+        ux = math.cos(a)
+        uy = math.sin(a)
+        dx = ux * max_range
+        dy = uy * max_range
+        best = max_range
+        for k in range(n_cand):
+            w = cand[k]
+            r = ray_wall(cx, cy, dx, dy, walls[w, 0], walls[w, 1], walls[w, 2], walls[w, 3])
+            if r < 1.0:
+                d = r * max_range
+                if d < best:
+                    best = d
+        for k in range(n_others):
+            qx = others[k, 0]
+            qy = others[k, 1]
+            if abs(qx - cx) > max_range + robot_radius or abs(qy - cy) > max_range + robot_radius:
+                continue
+            d = ray_circle(cx, cy, ux, uy, qx, qy, robot_radius)
+            if d < best:
+                best = d
+        out[j] = best

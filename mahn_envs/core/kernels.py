@@ -1,0 +1,101 @@
+"""Compiled batch loops over episodes.  Thin: every rule lives in core.task and core.controller."""
+from __future__ import annotations
+
+import numpy as np
+from numba import njit, prange
+
+from .controller import network_action
+from .task import (E_TICK, F_SIGNAL, H, P_MAXT, X, Y, decide_robot, move_robot, score_tick,
+                   sense_episode, team_fitness)
+
+
+@njit(cache=True)
+def sense_all(tick, pose, raw, obs, rflag, walls, boxes, angles, params, seed, keys, others, cand):
+    for b in range(pose.shape[0]):
+        sense_episode(b, tick, pose, raw, obs, rflag, walls, boxes, angles, params, seed, keys[b], others, cand)
+
+
+@njit(cache=True)
+def decide_all(actions, pose, raw, est, params, seed, keys):
+    """Start a tick in every episode: advance the clock and turn actions into heading and velocity."""
+    for b in range(pose.shape[0]):
+        tick = est[b, E_TICK] + 1
+        est[b, E_TICK] = tick
+        for r in range(pose.shape[1]):
+            decide_robot(b, r, actions[b, r], tick, pose, raw, params, seed, keys[b])
+
+
+@njit(cache=True)
+def move_all(pose, racc, params, walls, boxes):
+    for b in range(pose.shape[0]):
+        for r in range(pose.shape[1]):
+            move_robot(b, r, pose, racc, params, walls, boxes)
+
+
+@njit(cache=True)
+def finish_all(pose, raw, obs, racc, rflag, goto, est, prev_fit, rewards, solved, walls, boxes, angles,
+               pois, home, params, seed, keys, others, cand):
+    """End a tick: fitness sample, sensing for the next tick, and the reward (change of team fitness)."""
+    for b in range(pose.shape[0]):
+        tick = est[b, E_TICK]
+        score_tick(b, tick, pose, racc, rflag, goto, est, pois, home, params)
+        sense_episode(b, tick + 1, pose, raw, obs, rflag, walls, boxes, angles, params, seed, keys[b], others, cand)
+        fit, ok = team_fitness(b, pose, racc, rflag, goto, est, home)
+        rewards[b] = fit - prev_fit[b]
+        prev_fit[b] = fit
+        solved[b] = ok
+
+
+@njit(cache=True)
+def step_all(actions, pose, raw, obs, racc, rflag, goto, est, prev_fit, rewards, solved, walls, boxes, angles,
+             pois, home, params, seed, keys, others, cand):
+    """One tick of every episode with given actions (the env and RL vector-env path)."""
+    decide_all(actions, pose, raw, est, params, seed, keys)
+    move_all(pose, racc, params, walls, boxes)
+    finish_all(pose, raw, obs, racc, rflag, goto, est, prev_fit, rewards, solved, walls, boxes, angles,
+               pois, home, params, seed, keys, others, cand)
+
+
+@njit(cache=True, parallel=True)
+def run_controllers(pose, raw, obs, racc, rflag, goto, est, walls, boxes, angles, pois, home, params, seed, keys,
+                    w_ih, w_hh, w_ho, b_h, b_o, hid, out, brain, fitness, solved, traj, record):
+    """Whole episodes with the controllers in the loop, episodes spread over the cores.
+
+    State arrays must hold the reset state (poses placed, first sensing done).  With `record`, traj[b, t]
+    receives (x, y, heading, action) of every robot after tick t (t = 0 is the start).
+    """
+    n_ep = pose.shape[0]
+    n_robots = pose.shape[1]
+    n_ticks = int(params[P_MAXT])
+    for b in prange(n_ep):
+        others = np.empty((n_robots, 2), dtype=np.float64)
+        cand = np.empty(walls.shape[0], dtype=np.int64)
+        tmp_h = np.empty(w_hh.shape[3], dtype=np.float32)
+        if record:
+            for r in range(n_robots):
+                traj[b, 0, r, 0] = pose[b, r, X]
+                traj[b, 0, r, 1] = pose[b, r, Y]
+                traj[b, 0, r, 2] = pose[b, r, H]
+                traj[b, 0, r, 3] = -1.0
+        for tick in range(1, n_ticks + 1):
+            est[b, E_TICK] = tick
+            for r in range(n_robots):
+                action = network_action(b, r, obs, rflag[b, r, F_SIGNAL], w_ih, w_hh, w_ho, b_h, b_o,
+                                        hid, out, brain, tmp_h)
+                decide_robot(b, r, action, tick, pose, raw, params, seed, keys[b])
+                if record:
+                    traj[b, tick, r, 3] = action
+            for r in range(n_robots):
+                move_robot(b, r, pose, racc, params, walls, boxes)
+            score_tick(b, tick, pose, racc, rflag, goto, est, pois, home, params)
+            if record:
+                for r in range(n_robots):
+                    traj[b, tick, r, 0] = pose[b, r, X]
+                    traj[b, tick, r, 1] = pose[b, r, Y]
+                    traj[b, tick, r, 2] = pose[b, r, H]
+            if tick < n_ticks:
+                sense_episode(b, tick + 1, pose, raw, obs, rflag, walls, boxes, angles, params, seed, keys[b],
+                              others, cand)
+        fit, ok = team_fitness(b, pose, racc, rflag, goto, est, home)
+        fitness[b] = fit
+        solved[b] = ok

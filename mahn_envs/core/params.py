@@ -1,0 +1,87 @@
+"""Task settings: the original task by default, plus the noise levels of the generalisation test."""
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, fields
+
+import numpy as np
+
+from ..khepera import DEFAULT_MODEL, KheperaModel
+from . import task as T
+
+#: Episode length and signal tick of the original: 45 s of 0.033 s ticks, sampled every floor(1/dt) ticks,
+#: signal at the first sample past half time.
+ORIGINAL_MAX_TICKS = 1364
+ORIGINAL_SIGNAL_TICK = 690
+ORIGINAL_SAMPLE_PERIOD = 30
+
+
+@dataclass(frozen=True)
+class TaskParams:
+    """Episode timing, noise and rule switches.  Every default reproduces the original system.
+
+    Noise levels: `sensor_noise` and `effector_noise` are percentages as in the original (an IR input gets
+    +-sensor_noise/100 uniform; speed and turn rate are scaled by 1 +- effector_noise/100 every tick);
+    `heading_noise` is a uniform per-tick heading perturbation of at most that many radians;
+    `start_jitter_xy` (cm, uniform in a square) and `start_jitter_heading` (rad, uniform) move the start poses.
+    """
+
+    max_cycles: int = ORIGINAL_MAX_TICKS
+    signal_tick: int = ORIGINAL_SIGNAL_TICK
+    sample_period: int = ORIGINAL_SAMPLE_PERIOD
+    sensor_noise: float = 0.0
+    effector_noise: float = 0.0
+    heading_noise: float = 0.0
+    start_jitter_xy: float = 0.0
+    start_jitter_heading: float = 0.0
+    robots_see_each_other: bool = False
+    reflex: bool = True
+    auto_signal: bool = True
+
+    def __post_init__(self) -> None:
+        for name in ("max_cycles", "signal_tick", "sample_period"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
+                raise ValueError(f"TaskParams.{name} must be a positive integer, got {value!r}")
+        for name in ("sensor_noise", "effector_noise", "heading_noise", "start_jitter_xy", "start_jitter_heading"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)) \
+                    or not math.isfinite(value) or value < 0:
+                raise ValueError(f"TaskParams.{name} must be a finite number >= 0, got {value!r}")
+        if self.effector_noise >= 100:
+            raise ValueError("TaskParams.effector_noise must be below 100 (percent), or robots would reverse")
+        if self.signal_tick % self.sample_period != 0:
+            raise ValueError(f"TaskParams.signal_tick ({self.signal_tick}) must be a multiple of sample_period "
+                             f"({self.sample_period}): the signal is given at a fitness sample")
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+    @classmethod
+    def from_mapping(cls, data: dict) -> "TaskParams":
+        names = {f.name for f in fields(cls)}
+        unknown = set(data) - names
+        if unknown:
+            raise ValueError(f"unknown task parameter(s) {sorted(unknown)}; known: {sorted(names)}")
+        return cls(**data)
+
+    def vector(self, model: KheperaModel = DEFAULT_MODEL) -> np.ndarray:
+        """The float64 parameter vector the compiled kernels read (indices in core.task)."""
+        v = np.zeros(T.N_PARAMS, dtype=np.float64)
+        v[T.P_RADIUS] = model.radius
+        v[T.P_SPEED] = model.speed
+        v[T.P_TURN] = model.turn_rate
+        v[T.P_DT] = model.dt_robot
+        v[T.P_IR] = model.ir_range
+        v[T.P_RANGE] = model.sensor_range
+        v[T.P_FLOOR] = model.sensor_floor
+        v[T.P_SNOISE] = self.sensor_noise
+        v[T.P_ENOISE] = self.effector_noise
+        v[T.P_HNOISE] = self.heading_noise
+        v[T.P_MAXT] = self.max_cycles
+        v[T.P_PERIOD] = self.sample_period
+        v[T.P_SIGT] = self.signal_tick
+        v[T.P_SEE] = 1.0 if self.robots_see_each_other else 0.0
+        v[T.P_AUTOSIG] = 1.0 if self.auto_signal else 0.0
+        v[T.P_REFLEX] = 1.0 if self.reflex else 0.0
+        return v

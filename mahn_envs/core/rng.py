@@ -1,0 +1,43 @@
+"""Counter-based random numbers for the compiled core.
+
+Every random draw is a pure function of (seed, episode, tick, robot, channel).  Unlike a stateful generator this
+gives the same numbers whichever thread runs an episode and whatever order the episodes run in, so a batch
+evaluated on two cores equals the same batch evaluated on one, and one episode equals itself inside any batch.
+"""
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+_GOLDEN = np.uint64(0x9E3779B97F4A7C15)
+_M1 = np.uint64(0xBF58476D1CE4E5B9)
+_M2 = np.uint64(0x94D049BB133111EB)
+_S30 = np.uint64(30)
+_S27 = np.uint64(27)
+_S31 = np.uint64(31)
+_S11 = np.uint64(11)
+_INV53 = 1.0 / 9007199254740992.0
+
+# channels: one per kind of draw, so draws never collide
+CH_SENSOR = 0  # + sensor index (0..5)
+CH_SPEED = 8
+CH_TURN = 9
+CH_HEADING = 10
+CH_ACTION = 11
+
+
+@njit(cache=True, inline="always")
+def _mix(z):
+    z = (z ^ (z >> _S30)) * _M1
+    z = (z ^ (z >> _S27)) * _M2
+    return z ^ (z >> _S31)
+
+
+@njit(cache=True)
+def uniform(seed, episode, tick, robot, channel):
+    """A float in [0, 1) determined by its coordinates (splitmix64 finaliser over a combined key)."""
+    z = _mix(np.uint64(seed) + _GOLDEN)
+    z = _mix(z ^ (np.uint64(episode) * _GOLDEN))
+    z = _mix(z ^ (np.uint64(tick) * _M1))
+    z = _mix(z ^ (np.uint64(robot * 64 + channel) * _M2))
+    return float(z >> _S11) * _INV53
