@@ -5,7 +5,7 @@ evaluator runs a generation of teams through `run_controllers`, and the RL vecto
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Optional, Sequence
 
 import numpy as np
@@ -92,6 +92,12 @@ class BatchSim:
         self._others = np.zeros((R, 2))
         self._cand = np.zeros(self._walls.shape[0], dtype=np.int64)
         self._reset_done = False
+
+    def set_params(self, **changes) -> TaskParams:
+        """Replace some task parameters (validated); returns the new TaskParams."""
+        self.params = replace(self.params, **changes)
+        self._pvec = self.params.vector(self.model)
+        return self.params
 
     # ------------------------------------------------------------------ episode control
     def start_poses(self, seed: int, episode_keys: np.ndarray) -> np.ndarray:
