@@ -1,0 +1,301 @@
+"""The NEAT population and its generation loop, as an ask/tell pair.
+
+Why ask/tell: the trainer evaluates a whole generation in one batched, compiled call, so the population never
+calls an evaluator itself::
+
+    pop = Population.create(NeatSettings(), seed=1, kind="iros2011", n_inputs=6)
+    for _ in range(generations):
+        fitness = evaluate_batch(pop.ask())   # list[Genome] -> array (population_size,)
+        stats = pop.tell(fitness)             # reproduce; pop.ask() now returns the next generation
+
+``tell`` runs the original's pipeline (section 8 of the reference sheet) in this order: sort species by fitness,
+statistics and stagnation, target and elite sizes, drop species with target 0, asexual then sexual offspring (the
+innovation tables are cleared first), trim species to their elites, place offspring (parent species first), adjust
+the threshold and re-speciate fully if it moved or mean complexity changed by more than 5 %.
+
+Every random choice is drawn from one ``numpy.random.Generator`` (PCG64), species are processed in id order and
+the population size never changes, so a seed determines the whole run; :meth:`to_dict` captures the complete state
+(RNG included) as plain JSON so a resumed run continues bit-identically.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+from typing import Any, Callable, Sequence
+
+import numpy as np
+
+from .genome import Genome
+from .initial import initial_population
+from .innovation import InnovationTracker
+from .reproduction import elite_sizes, make_offspring, stagnation_adjusted_means, target_sizes
+from .settings import NeatSettings
+from .speciation import RepresentativeIndex, Species, ThresholdController, first_compatible, speciate_all
+
+__all__ = ["Population", "GenerationStats"]
+
+FORMAT = "mahn-neat-population"
+VERSION = 1
+
+
+@dataclass(frozen=True)
+class GenerationStats:
+    """Statistics of one evaluated generation (and the threshold the next one was speciated with)."""
+
+    generation: int  # 0-based index of the evaluated generation
+    best_fitness: float
+    mean_fitness: float
+    best_ever: float
+    n_species: int  # species in the evaluated generation
+    threshold: float  # compatibility threshold after this generation's adjustment
+    mean_complexity: float  # nodes + connections, evaluated generation
+    max_complexity: int
+    mean_hidden: float
+    respeciated: bool  # the next generation was fully re-speciated
+
+    def to_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+
+class Population:
+    """A NEAT population: genomes awaiting evaluation, their species, and everything needed to continue."""
+
+    def __init__(
+        self,
+        settings: NeatSettings,
+        genomes: Sequence[Genome],
+        tracker: InnovationTracker,
+        rng: np.random.Generator,
+    ) -> None:
+        """Start from ``genomes`` (usually from :func:`initial_population`); they are speciated at the initial
+        threshold.  ``rng`` must be the run's only generator (it is advanced by every later step)."""
+        if len(genomes) != settings.population_size:
+            raise ValueError(
+                f"Population: got {len(genomes)} genomes for population_size {settings.population_size}"
+            )
+        self.settings = settings
+        self.rng = rng
+        self.tracker = tracker
+        self.generation = 0
+        self._genomes: list[Genome] = list(genomes)
+        self._threshold = ThresholdController(settings.initial_compatibility_threshold)
+        self._species, self._next_species_id = speciate_all(
+            self._genomes, self._threshold.threshold, settings, (), 0, 0
+        )
+        self._ref_complexity = self._mean_complexity(self._genomes)
+        self.best_genome: Genome | None = None
+        self.best_fitness: float = -math.inf
+
+    # ---------------------------------------------------------------------------------------------- building
+    @classmethod
+    def create(
+        cls,
+        settings: NeatSettings,
+        seed: int,
+        kind: str = "minimal",
+        n_inputs: int = 6,
+        n_outputs: int = 2,
+        output_activation: str = "bipolar_sigmoid",
+    ) -> "Population":
+        """A fresh population with its own PCG64 generator seeded with ``seed`` (see :func:`initial_population`)."""
+        rng = np.random.Generator(np.random.PCG64(seed))
+        genomes, tracker = initial_population(kind, n_inputs, settings, rng, n_outputs, output_activation)
+        return cls(settings, genomes, tracker, rng)
+
+    # ---------------------------------------------------------------------------------------------- access
+    @property
+    def genomes(self) -> list[Genome]:
+        """The current generation (to be evaluated), as a new list."""
+        return list(self._genomes)
+
+    def ask(self) -> list[Genome]:
+        """The genomes to evaluate next (same as :attr:`genomes`)."""
+        return list(self._genomes)
+
+    @property
+    def species(self) -> tuple[Species, ...]:
+        """Current species, in id order (members index :attr:`genomes`)."""
+        return tuple(self._species)
+
+    @property
+    def threshold(self) -> float:
+        return self._threshold.threshold
+
+    @staticmethod
+    def _mean_complexity(genomes: Sequence[Genome]) -> float:
+        return float(np.mean([g.complexity for g in genomes]))
+
+    # ---------------------------------------------------------------------------------------------- loop
+    def evolve_one_generation(self, evaluate: Callable[[list[Genome]], np.ndarray]) -> GenerationStats:
+        """Convenience: ``tell(evaluate(ask()))``."""
+        return self.tell(evaluate(self.ask()))
+
+    def tell(self, fitnesses: Sequence[float] | np.ndarray) -> GenerationStats:
+        """Give the fitness of every genome of :meth:`ask` (same order); produce the next generation."""
+        s = self.settings
+        f = np.asarray(fitnesses, dtype=np.float64)
+        n = s.population_size
+        if f.shape != (n,):
+            raise ValueError(f"Population.tell: expected {n} fitness values, got shape {f.shape}")
+        if not np.all(np.isfinite(f)):
+            raise ValueError("Population.tell: fitness values must be finite")
+        f = np.maximum(f, s.fitness_floor)
+        gen = self.generation
+        genomes = self._genomes
+
+        # 7. sort species best first, statistics, stagnation bookkeeping
+        for sp in self._species:
+            sp.members.sort(key=lambda i: (-f[i], i))
+        best = int(np.argmax(f))
+        if f[best] > self.best_fitness:
+            self.best_fitness = float(f[best])
+            self.best_genome = genomes[best]
+        champion = 0
+        for k, sp in enumerate(self._species):
+            top = float(f[sp.members[0]])
+            if top > sp.best_fitness:
+                sp.best_fitness = top
+                sp.last_improvement = gen
+            if best in sp.members:
+                champion = k
+        complexities = np.array([g.complexity for g in genomes])
+        n_species = len(self._species)
+
+        means = stagnation_adjusted_means(self._species, f, champion, gen, s)
+        targets = target_sizes(means, champion, n)
+        sizes = np.array([len(sp.members) for sp in self._species], dtype=np.int64)
+        elites = elite_sizes(targets, sizes, champion, s.elitism_proportion)
+
+        # 1. drop species with target 0
+        keep = np.flatnonzero(targets > 0)
+        species = [self._species[k] for k in keep]
+        targets, elites = targets[keep], elites[keep]
+
+        # 2-3. offspring
+        offspring = make_offspring(species, genomes, f, targets, elites, self.rng, s, self.tracker)
+
+        # 4. trim to elites; the new list is the elites (species order, best first), then offspring
+        new_genomes: list[Genome] = []
+        new_species: list[Species] = []
+        for sp, e in zip(species, elites.tolist()):
+            if e == 0:
+                continue
+            start = len(new_genomes)
+            new_genomes.extend(genomes[i] for i in sp.members[:e])
+            new_species.append(Species(sp.id, list(range(start, start + e)), sp.created, sp.best_fitness, sp.last_improvement))
+        n_elite = len(new_genomes)
+        new_genomes.extend(o.genome for o in offspring)
+        assert len(new_genomes) == n, (len(new_genomes), n)
+
+        # 5. place offspring
+        index = RepresentativeIndex(new_genomes, s)
+        row_of: dict[int, int] = {}
+        for sp in new_species:
+            row_of[sp.id] = index.add(new_genomes[sp.members[0]])
+        thr = self._threshold.threshold
+        for j, o in enumerate(offspring):
+            i = n_elite + j
+            d = index.distances(o.genome)
+            r = first_compatible(d, thr, [row_of.get(pid, -1) for pid in o.parent_species])
+            if r >= 0:
+                new_species[r].members.append(i)
+            else:
+                sp = Species(self._next_species_id, [i], gen + 1, -math.inf, gen + 1)
+                self._next_species_id += 1
+                row_of[sp.id] = index.add(o.genome)
+                new_species.append(sp)
+
+        # 6. threshold and full re-speciation
+        changed = self._threshold.adjust(len(new_species), s)
+        cplx = self._mean_complexity(new_genomes)
+        drift = abs(cplx - self._ref_complexity) > s.respeciation_complexity_change * self._ref_complexity
+        if changed or drift:
+            new_species, self._next_species_id = speciate_all(
+                new_genomes, self._threshold.threshold, s, new_species, gen + 1, self._next_species_id
+            )
+            self._ref_complexity = cplx
+
+        self._genomes = new_genomes
+        self._species = new_species
+        self.generation = gen + 1
+        return GenerationStats(
+            generation=gen,
+            best_fitness=float(f[best]),
+            mean_fitness=float(np.mean(f)),
+            best_ever=self.best_fitness,
+            n_species=n_species,
+            threshold=self._threshold.threshold,
+            mean_complexity=float(np.mean(complexities)),
+            max_complexity=int(np.max(complexities)),
+            mean_hidden=float(np.mean([g.n_hidden for g in genomes])),
+            respeciated=bool(changed or drift),
+        )
+
+    # ---------------------------------------------------------------------------------------------- state
+    def to_dict(self) -> dict[str, Any]:
+        """The complete state as plain JSON-able data (no pickle): resuming from it is bit-identical."""
+        return {
+            "format": FORMAT,
+            "version": VERSION,
+            "settings": self.settings.to_dict(),
+            "generation": self.generation,
+            "genomes": [g.to_dict() for g in self._genomes],
+            "species": [sp.to_dict() for sp in self._species],
+            "next_species_id": self._next_species_id,
+            "threshold": self._threshold.to_dict(),
+            "reference_complexity": self._ref_complexity,
+            "tracker": self.tracker.to_dict(),
+            "rng": _rng_state(self.rng),
+            "best_genome": None if self.best_genome is None else self.best_genome.to_dict(),
+            "best_fitness": None if self.best_fitness == -math.inf else self.best_fitness,
+        }
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> "Population":
+        """Restore a population saved by :meth:`to_dict` (e.g. after ``json.loads``)."""
+        if data.get("format") != FORMAT:
+            raise ValueError(f"Population.from_dict: not a {FORMAT} document (format={data.get('format')!r})")
+        if data.get("version") != VERSION:
+            raise ValueError(f"Population.from_dict: unsupported version {data.get('version')!r}")
+        settings = NeatSettings.from_mapping(data["settings"])
+        self = cls.__new__(cls)
+        self.settings = settings
+        self.generation = int(data["generation"])
+        self._genomes = [Genome.from_dict(g) for g in data["genomes"]]
+        if len(self._genomes) != settings.population_size:
+            raise ValueError("Population.from_dict: genome count does not match population_size")
+        self._species = [Species.from_dict(d) for d in data["species"]]
+        members = sorted(i for sp in self._species for i in sp.members)
+        if members != list(range(len(self._genomes))):
+            raise ValueError("Population.from_dict: species members must partition the genomes")
+        self._next_species_id = int(data["next_species_id"])
+        self._threshold = ThresholdController.from_dict(data["threshold"])
+        self._ref_complexity = float(data["reference_complexity"])
+        self.tracker = InnovationTracker.from_dict(data["tracker"])
+        self.rng = _rng_from_state(data["rng"])
+        bg = data.get("best_genome")
+        self.best_genome = None if bg is None else Genome.from_dict(bg)
+        bf = data.get("best_fitness")
+        self.best_fitness = -math.inf if bf is None else float(bf)
+        return self
+
+
+def _rng_state(rng: np.random.Generator) -> dict[str, Any]:
+    st = rng.bit_generator.state
+    if st.get("bit_generator") != "PCG64":
+        raise ValueError(f"Population: the run generator must be PCG64, got {st.get('bit_generator')!r}")
+    return {
+        "bit_generator": "PCG64",
+        "state": {"state": int(st["state"]["state"]), "inc": int(st["state"]["inc"])},
+        "has_uint32": int(st["has_uint32"]),
+        "uinteger": int(st["uinteger"]),
+    }
+
+
+def _rng_from_state(d: dict[str, Any]) -> np.random.Generator:
+    if d.get("bit_generator") != "PCG64":
+        raise ValueError(f"Population.from_dict: rng must be PCG64, got {d.get('bit_generator')!r}")
+    bg = np.random.PCG64()
+    bg.state = d
+    return np.random.Generator(bg)

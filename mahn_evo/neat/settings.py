@@ -1,0 +1,243 @@
+"""Every NEAT parameter in one validated, immutable record.
+
+The defaults are the values of the original IROS 2011 system (HyperSharpNEAT, i.e. SharpNEAT 1.0 with changes;
+see ``reference/iros2011-original-system.md`` section 8).  Keeping them in one frozen dataclass means a run's
+configuration can be written to JSON, compared and restored exactly, and a typo in a configuration file fails
+loudly (``from_mapping`` rejects unknown keys) instead of silently running with a default.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass, field
+from typing import Any, Mapping
+
+#: Activation names a hidden node may be given by add-node (see :mod:`mahn_evo.cppn.activations`).
+HIDDEN_ACTIVATION_CHOICES = ("bipolar_sigmoid", "gaussian", "abs", "sine", "sigmoid", "error_sign", "identity")
+
+
+def _check(cond: bool, name: str, msg: str) -> None:
+    if not cond:
+        raise ValueError(f"NeatSettings.{name}: {msg}")
+
+
+@dataclass(frozen=True)
+class NeatSettings:
+    """NEAT parameters.  Defaults reproduce the original system; every field is validated on construction.
+
+    Probabilities that form a roulette (mutation operators, weight schemes) need not sum to 1: they are weights,
+    normalised when spun, which is how SharpNEAT 1.0 treats them too.
+    """
+
+    # --- population and reproduction -------------------------------------------------------------------------
+    #: Nominal population size.  Unlike the original (whose per-species rounding let 200 drift to 186..254), the
+    #: population is kept at exactly this size by largest-remainder apportionment of species targets.
+    population_size: int = 500
+    #: Fraction of a species' target size kept unchanged (elite = floor(target * elitism), see reproduction).
+    elitism_proportion: float = 0.2
+    #: Parents are drawn only from the best ``round(selection_proportion * size)`` members of a species.
+    selection_proportion: float = 0.8
+    #: Fraction of a species' offspring made asexually (copy + exactly one mutation); the rest are crossovers.
+    asexual_proportion: float = 0.5
+    #: Probability that a crossover takes its second parent from the whole population instead of the species.
+    interspecies_mating_probability: float = 0.01
+    #: Probability of including the less-fit parent's disjoint/excess genes (one coin per mating).
+    disjoint_excess_recombine_probability: float = 0.1
+
+    # --- mutation roulette (one operator per asexual offspring) -----------------------------------------------
+    mutate_weights_probability: float = 0.96
+    add_connection_probability: float = 0.03
+    add_node_probability: float = 0.01
+    #: Weights of the five weight-mutation schemes: (jiggle each p=0.5, jiggle each p=0.1, jiggle one,
+    #: reset each p=0.1, reset one).  The 0.5 weight on scheme 4 is the original's.
+    weight_scheme_probabilities: tuple[float, float, float, float, float] = (0.125, 0.125, 0.125, 0.5, 0.125)
+    #: Per-connection selection probabilities of the proportional schemes 1, 2 and 4.
+    weight_scheme_proportions: tuple[float, float, float] = (0.5, 0.1, 0.1)
+    #: A jiggle adds U(-weight_jiggle, +weight_jiggle).
+    weight_jiggle: float = 0.05
+    #: Weights are clamped to [-weight_limit, weight_limit] after a jiggle, and resets draw U(-limit, limit).
+    #: 1.5 is the original's connectionWeightRange 3 halved.
+    weight_limit: float = 1.5
+    #: New connections start at U(-new_connection_weight_range, +...) = range/8 in the original.
+    new_connection_weight_range: float = 0.375
+    #: Attempts at finding an absent (src, dst) pair before add-connection falls back to a weight mutation.
+    add_connection_attempts: int = 5
+    #: Recurrent connections and self-loops may be added.  The CPPN activation ignores them (they contribute 0),
+    #: but they are part of the genome and of the compatibility distance.
+    allow_recurrent: bool = True
+    #: Activation functions a new hidden node draws from, uniformly.
+    hidden_activations: tuple[str, ...] = ("bipolar_sigmoid", "gaussian", "abs", "sine")
+
+    # --- speciation --------------------------------------------------------------------------------------------
+    disjoint_coefficient: float = 1.0
+    excess_coefficient: float = 1.0
+    #: Multiplies the SUM (not the mean) of |weight differences| over matching genes, as in the original.
+    weight_coefficient: float = 0.05
+    initial_compatibility_threshold: float = 8.0
+    #: Desired species count range; ``None`` means population_size/10 - 2 and population_size/10 (48..50 at 500).
+    species_count_min: int | None = None
+    species_count_max: int | None = None
+    #: A new adjustment starts with delta = max(threshold_delta_min, threshold_delta_proportion * threshold).
+    threshold_delta_min: float = 0.1
+    threshold_delta_proportion: float = 0.01
+    #: The delta grows by this factor while the direction stays the same ...
+    threshold_delta_acceleration: float = 1.05
+    #: ... and is multiplied by -this factor when the species count overshoots the range.
+    threshold_delta_deceleration: float = 0.5
+    threshold_floor: float = 0.01
+    #: A full re-speciation is forced when mean complexity (nodes + connections) changed by more than this
+    #: fraction since the last one.
+    respeciation_complexity_change: float = 0.05
+
+    # --- stagnation --------------------------------------------------------------------------------------------
+    #: A species whose best fitness has not improved for more than this many generations is penalised ...
+    stagnation_generations: int = 200
+    #: ... by multiplying its mean fitness (used for target sizes) by this factor.  The champion species is exempt.
+    stagnation_penalty: float = 0.01
+
+    # --- fitness and initialisation ----------------------------------------------------------------------------
+    #: Fitness values are raised to at least this floor (the original's max(F, 1e-7)); roulettes need them > 0.
+    fitness_floor: float = 1e-7
+    #: Seeded populations: every weight of genomes 1..N-1 gets U(-jitter, +jitter), unclamped (original).
+    initial_weight_jitter: float = 0.1
+    #: Minimal populations: initial weights U(-initial_weight_range, +initial_weight_range).
+    initial_weight_range: float = 1.5
+
+    # --- CPPN activation ---------------------------------------------------------------------------------------
+    #: False reproduces the original (module outputs are always 0, so the seed's Multiply modules are dead);
+    #: True evaluates Multiply modules, the "intended behaviour" ablation.
+    evaluate_modules: bool = False
+
+    # Resolved copies of the optional fields, filled by __post_init__ (not constructor arguments).
+    _resolved: tuple[int, int] = field(default=(0, 0), init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        n = self.population_size
+        _check(isinstance(n, int) and not isinstance(n, bool) and n >= 2, "population_size", f"must be an int >= 2, got {n!r}")
+        for name in (
+            "elitism_proportion",
+            "selection_proportion",
+            "asexual_proportion",
+            "interspecies_mating_probability",
+            "disjoint_excess_recombine_probability",
+            "stagnation_penalty",
+        ):
+            v = getattr(self, name)
+            _check(_is_real(v) and 0.0 <= v <= 1.0, name, f"must be a number in [0, 1], got {v!r}")
+        _check(self.selection_proportion > 0.0, "selection_proportion", "must be > 0")
+        for name in ("mutate_weights_probability", "add_connection_probability", "add_node_probability"):
+            v = getattr(self, name)
+            _check(_is_real(v) and v >= 0.0, name, f"must be a number >= 0, got {v!r}")
+        _check(
+            self.mutate_weights_probability + self.add_connection_probability + self.add_node_probability > 0,
+            "mutate_weights_probability",
+            "the mutation roulette weights must not all be 0",
+        )
+        _check(
+            len(self.weight_scheme_probabilities) == 5
+            and all(_is_real(p) and p >= 0 for p in self.weight_scheme_probabilities)
+            and sum(self.weight_scheme_probabilities) > 0,
+            "weight_scheme_probabilities",
+            f"must be 5 non-negative numbers, not all 0, got {self.weight_scheme_probabilities!r}",
+        )
+        _check(
+            len(self.weight_scheme_proportions) == 3
+            and all(_is_real(p) and 0 <= p <= 1 for p in self.weight_scheme_proportions),
+            "weight_scheme_proportions",
+            f"must be 3 numbers in [0, 1], got {self.weight_scheme_proportions!r}",
+        )
+        for name in (
+            "weight_jiggle",
+            "new_connection_weight_range",
+            "initial_weight_jitter",
+            "initial_weight_range",
+            "disjoint_coefficient",
+            "excess_coefficient",
+            "weight_coefficient",
+            "threshold_delta_min",
+            "threshold_delta_proportion",
+            "respeciation_complexity_change",
+            "fitness_floor",
+        ):
+            v = getattr(self, name)
+            _check(_is_real(v) and math.isfinite(v) and v >= 0.0, name, f"must be a finite number >= 0, got {v!r}")
+        _check(_is_real(self.weight_limit) and 0 < self.weight_limit < math.inf, "weight_limit", "must be finite and > 0")
+        _check(
+            self.new_connection_weight_range <= self.weight_limit,
+            "new_connection_weight_range",
+            "must not exceed weight_limit",
+        )
+        _check(
+            isinstance(self.add_connection_attempts, int) and self.add_connection_attempts >= 1,
+            "add_connection_attempts",
+            "must be an int >= 1",
+        )
+        _check(isinstance(self.allow_recurrent, bool), "allow_recurrent", "must be a bool")
+        _check(isinstance(self.evaluate_modules, bool), "evaluate_modules", "must be a bool")
+        _check(
+            isinstance(self.hidden_activations, tuple)
+            and len(self.hidden_activations) > 0
+            and all(a in HIDDEN_ACTIVATION_CHOICES for a in self.hidden_activations),
+            "hidden_activations",
+            f"must be a non-empty tuple drawn from {HIDDEN_ACTIVATION_CHOICES}, got {self.hidden_activations!r}",
+        )
+        _check(
+            _is_real(self.initial_compatibility_threshold) and self.initial_compatibility_threshold > 0,
+            "initial_compatibility_threshold",
+            "must be > 0",
+        )
+        _check(_is_real(self.threshold_floor) and self.threshold_floor > 0, "threshold_floor", "must be > 0")
+        _check(self.threshold_delta_acceleration >= 1.0, "threshold_delta_acceleration", "must be >= 1")
+        _check(
+            0.0 < self.threshold_delta_deceleration <= 1.0, "threshold_delta_deceleration", "must be in (0, 1]"
+        )
+        _check(
+            isinstance(self.stagnation_generations, int) and self.stagnation_generations >= 0,
+            "stagnation_generations",
+            "must be an int >= 0",
+        )
+        lo = self.species_count_min if self.species_count_min is not None else max(1, n // 10 - 2)
+        hi = self.species_count_max if self.species_count_max is not None else max(1, n // 10)
+        _check(isinstance(lo, int) and lo >= 1, "species_count_min", f"must be an int >= 1, got {lo!r}")
+        _check(isinstance(hi, int) and hi >= lo, "species_count_max", f"must be an int >= species_count_min, got {hi!r}")
+        _check(hi <= n, "species_count_max", "must not exceed population_size")
+        object.__setattr__(self, "_resolved", (lo, hi))
+
+    # ------------------------------------------------------------------------------------------------------------
+    @property
+    def species_target_range(self) -> tuple[int, int]:
+        """The (min, max) species count the dynamic threshold steers towards."""
+        return self._resolved
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain JSON-able dict of the constructor fields (tuples become lists)."""
+        out: dict[str, Any] = {}
+        for f in dataclasses.fields(self):
+            if not f.init:
+                continue
+            v = getattr(self, f.name)
+            out[f.name] = list(v) if isinstance(v, tuple) else v
+        return out
+
+    @classmethod
+    def from_mapping(cls, data: Mapping[str, Any]) -> "NeatSettings":
+        """Build settings from a mapping (e.g. parsed JSON); unknown keys are rejected by name."""
+        known = {f.name: f for f in dataclasses.fields(cls) if f.init}
+        unknown = sorted(set(data) - set(known))
+        if unknown:
+            raise ValueError(f"NeatSettings: unknown setting(s) {', '.join(unknown)}")
+        kw: dict[str, Any] = {}
+        for k, v in data.items():
+            if isinstance(v, list):
+                v = tuple(v)
+            kw[k] = v
+        return cls(**kw)
+
+    def replace(self, **changes: Any) -> "NeatSettings":
+        """A copy with some fields changed (validated again)."""
+        return self.from_mapping({**self.to_dict(), **changes})
+
+
+def _is_real(v: Any) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool)
