@@ -1,0 +1,101 @@
+"""Bad input gets a ValueError that names the problem, never a numba crash or a silent clamp."""
+import json
+
+import numpy as np
+import pytest
+
+from mahn_envs import BatchSim, TaskParams, load_map, patrol_return_v0
+
+
+@pytest.fixture
+def env():
+    e = patrol_return_v0.parallel_env()
+    e.reset(seed=0)
+    return e
+
+
+@pytest.mark.parametrize("bad, match", [(3, "robot_0"), (-1, "robot_0"), (1.5, "integer"), ("1", "integer"),
+                                        (None, "integer"), (True, "integer"), (np.float32(1), "integer")])
+def test_wrong_action_values(env, bad, match):
+    with pytest.raises(ValueError, match=match):
+        env.step({"robot_0": bad, "robot_1": 1, "robot_2": 1})
+
+
+def test_unknown_and_missing_agents(env):
+    with pytest.raises(ValueError, match="unknown agent 'robot_9'"):
+        env.step({"robot_0": 1, "robot_1": 1, "robot_2": 1, "robot_9": 1})
+    with pytest.raises(ValueError, match="robot_2"):
+        env.step({"robot_0": 1, "robot_1": 1})
+    with pytest.raises(ValueError, match="dict"):
+        env.step([1, 1, 1])
+
+
+def test_numpy_integer_actions_are_fine(env):
+    env.step({"robot_0": np.int64(0), "robot_1": np.array(1), "robot_2": 2})
+
+
+@pytest.mark.parametrize("pose, match", [((np.nan, 50.0, 0.0), "not finite"), ((500.0, 50.0, 0.0), "outside"),
+                                         ((80.0, 50.0, 0.0), "overlaps a wall"), ((1.0, 2.0), "x, y, heading")])
+def test_bad_poses(pose, match):
+    env = patrol_return_v0.parallel_env()
+    with pytest.raises(ValueError, match=match):
+        env.reset(seed=0, options={"poses": {"robot_1": pose}})
+    with pytest.raises(ValueError, match="unknown agent"):
+        env.reset(seed=0, options={"poses": {"robot_7": (93.5, 40.0, 0.0)}})
+
+
+def _map(tmp_path, **override):
+    data = load_map("plus").to_dict()
+    data.update(override)
+    path = tmp_path / "m.json"
+    path.write_text(json.dumps(data))
+    return str(path)
+
+
+@pytest.mark.parametrize("override, match", [
+    ({"walls": [[0, 0, 1]]}, r"walls\[0\]"), ({"walls": []}, "walls"), ({"home": [1, "a"]}, "home"),
+    ({"pois": [[1000.0, 5.0]] * 3}, r"pois\[0\]"), ({"starts": [[1, 2]]}, r"starts\[0\]"),
+    ({"name": ""}, "name"), ({"walls": [[0, 0, 0, 0]]}, "zero length"), ({"colour": "red"}, "colour"),
+    ({"pois": [[10, 94]]}, "POIs"),
+])
+def test_malformed_maps_name_the_field(tmp_path, override, match):
+    with pytest.raises(ValueError, match=match):
+        patrol_return_v0.parallel_env(map=_map(tmp_path, **override))
+
+
+def test_missing_field_and_bad_json(tmp_path):
+    data = load_map("plus").to_dict()
+    del data["home"]
+    p = tmp_path / "a.json"
+    p.write_text(json.dumps(data))
+    with pytest.raises(ValueError, match="missing field 'home'"):
+        load_map(str(p))
+    p.write_text("{not json")
+    with pytest.raises(ValueError, match="not valid JSON"):
+        load_map(str(p))
+    with pytest.raises(ValueError, match="unknown map"):
+        load_map("no_such_map")
+
+
+def test_bad_settings():
+    with pytest.raises(ValueError, match="sensor_noise"):
+        TaskParams(sensor_noise=-1)
+    with pytest.raises(ValueError, match="signal_tick"):
+        TaskParams(signal_tick=691)
+    with pytest.raises(ValueError, match="engine"):
+        patrol_return_v0.parallel_env(engine="box2d")
+    with pytest.raises(ValueError, match="pymunk"):
+        patrol_return_v0.parallel_env(robots_collide=True)
+    with pytest.raises(ValueError, match="render_mode"):
+        patrol_return_v0.parallel_env(render_mode="ansi")
+
+
+def test_core_actions_validated():
+    sim = BatchSim("plus", 2)
+    sim.reset(0)
+    with pytest.raises(ValueError, match="shape"):
+        sim.step(np.ones((3,), dtype=int))
+    with pytest.raises(ValueError, match="0 \\(left\\)"):
+        sim.step(np.full((2, 3), 7))
+    with pytest.raises(ValueError, match="integers"):
+        sim.step(np.full((2, 3), 0.5))
