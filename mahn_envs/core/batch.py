@@ -15,7 +15,7 @@ from ..khepera import DEFAULT_MODEL, KheperaModel
 from ..maps import World, load_map
 from . import kernels
 from . import task as T
-from .geometry import touches_any_wall, wall_boxes
+from .geometry import sensor_directions, touches_any_wall, wall_boxes
 from .params import TaskParams
 
 
@@ -73,7 +73,7 @@ class BatchSim:
         self._pvec = self.params.vector(model)
         self._walls = np.ascontiguousarray(self.world.walls)
         self._boxes = np.ascontiguousarray(wall_boxes(self._walls))
-        self._angles = np.asarray(model.sensor_angles, dtype=np.float64)
+        self._dirs = sensor_directions(model.sensor_angles)
         self._pois = np.ascontiguousarray(self.world.pois)
         self._home = np.ascontiguousarray(self.world.home)
         B, R = self.n_episodes, n_robots
@@ -144,7 +144,7 @@ class BatchSim:
         self.prev_fit[:] = 0.0
         self.rewards[:] = 0.0
         self.solved[:] = False
-        kernels.sense_all(1, self.pose, self.raw, self.obs, self.rflag, self._walls, self._boxes, self._angles,
+        kernels.sense_all(1, self.pose, self.raw, self.obs, self.rflag, self._walls, self._boxes, self._dirs,
                           self._pvec, self.seed, self.keys, self._others, self._cand)
         self._reset_done = True
         return self.obs
@@ -182,7 +182,7 @@ class BatchSim:
             raise RuntimeError(f"the episode is over (tick {self.tick} of {self.params.max_cycles}); call reset()")
         a = self.check_actions(actions) if validate else actions
         kernels.step_all(a, self.pose, self.raw, self.obs, self.racc, self.rflag, self.goto, self.est,
-                         self.prev_fit, self.rewards, self.solved, self._walls, self._boxes, self._angles,
+                         self.prev_fit, self.rewards, self.solved, self._walls, self._boxes, self._dirs,
                          self._pois, self._home, self._pvec, self.seed, self.keys, self._others, self._cand)
         return self.obs, self.rewards, self.solved
 
@@ -194,6 +194,21 @@ class BatchSim:
     def team_fitness(self) -> tuple[np.ndarray, np.ndarray]:
         """Team fitness and `solved` of each episode as things stand (final once the episode is done)."""
         return self.prev_fit.copy(), self.solved.copy()
+
+    def run_random(self, seed: int = 0, p_left: float = 1 / 3, p_forward: float = 1 / 3,
+                   episode_keys: Optional[Sequence[int]] = None) -> RunResult:
+        """Whole episodes of a random team in the compiled loop (random-policy reference, benchmark)."""
+        if not (0 <= p_left <= 1 and 0 <= p_forward <= 1 and p_left + p_forward <= 1):
+            raise ValueError("p_left and p_forward must be probabilities with p_left + p_forward <= 1")
+        self.reset(seed=seed, episode_keys=episode_keys)
+        fitness = np.zeros(self.n_episodes)
+        solved = np.zeros(self.n_episodes, dtype=np.bool_)
+        kernels.run_random(self.pose, self.raw, self.obs, self.racc, self.rflag, self.goto, self.est, self._walls,
+                           self._boxes, self._dirs, self._pois, self._home, self._pvec, self.seed, self.keys,
+                           float(p_left), float(p_forward), fitness, solved)
+        self.prev_fit[:] = fitness
+        self.solved[:] = solved
+        return RunResult(fitness=fitness, solved=solved, collisions=self.racc[:, :, T.R_COLL].astype(np.int64))
 
     # ------------------------------------------------------------------ controllers in the loop
     def run_controllers(self, controllers: TeamControllers, seed: int = 0, poses: Optional[np.ndarray] = None,
@@ -224,7 +239,7 @@ class BatchSim:
         T_ = self.params.max_cycles
         traj = np.zeros((B, T_ + 1, R, 4)) if record else np.zeros((1, 1, 1, 4))
         kernels.run_controllers(self.pose, self.raw, self.obs, self.racc, self.rflag, self.goto, self.est,
-                                self._walls, self._boxes, self._angles, self._pois, self._home, self._pvec,
+                                self._walls, self._boxes, self._dirs, self._pois, self._home, self._pvec,
                                 self.seed, self.keys, ctrl.w_ih, ctrl.w_hh, ctrl.w_ho, ctrl.b_h, ctrl.b_o,
                                 hid, out, brain, fitness, solved, traj, record)
         self.prev_fit[:] = fitness

@@ -22,12 +22,12 @@ from .task import FORWARD, LEFT, NONE, RIGHT
 SIGMOID_SLOPE = np.float32(4.9)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, error_model="numpy", inline="always")
 def _sigmoid(x):
     return np.float32(1.0) / (np.float32(1.0) + np.float32(math.exp(-SIGMOID_SLOPE * x)))
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def winner_take_all(o0, o1, o2):
     """Forward wins every tie, then left beats right; NaN outputs decide nothing (the original's rule)."""
     if o1 - o0 >= 0 and o1 - o2 >= 0:
@@ -39,7 +39,7 @@ def winner_take_all(o0, o1, o2):
     return NONE
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def network_action(b, r, obs, rflag_signal, w_ih, w_hh, w_ho, b_h, b_o, hid, out, brain, tmp_h):
     """Two synchronous network steps on this tick's inputs, then winner-take-all.
 

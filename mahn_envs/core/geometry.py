@@ -18,7 +18,13 @@ def wall_boxes(walls: np.ndarray) -> np.ndarray:
                      np.maximum(w[:, 0], w[:, 2]), np.maximum(w[:, 1], w[:, 3])], axis=1)
 
 
-@njit(cache=True, inline="always")
+def sensor_directions(angles) -> np.ndarray:
+    """(cos a, sin a) of each sensor's angle relative to the heading, computed once per simulator."""
+    a = np.asarray(angles, dtype=np.float64)
+    return np.ascontiguousarray(np.stack([np.cos(a), np.sin(a)], axis=1))
+
+
+@njit(cache=True, error_model="numpy", inline="always")
 def ray_wall(cx, cy, dx, dy, x1, y1, x2, y2):
     """Fraction along the ray (c, c + d) where it crosses the wall, or 2.0 for no hit.
 
@@ -38,7 +44,7 @@ def ray_wall(cx, cy, dx, dy, x1, y1, x2, y2):
     return 2.0
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, error_model="numpy", inline="always")
 def ray_circle(cx, cy, ux, uy, qx, qy, radius):
     """Distance along the unit ray u from c to the first crossing of the circle (q, radius); inf if none."""
     px = qx - cx
@@ -53,7 +59,7 @@ def ray_circle(cx, cy, ux, uy, qx, qy, radius):
     return b - math.sqrt(disc)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, error_model="numpy", inline="always")
 def touches_wall(cx, cy, radius, x1, y1, x2, y2):
     """True when a circle at c is closer than `radius` to the wall: projection test, then endpoints."""
     ex = x2 - x1
@@ -68,7 +74,7 @@ def touches_wall(cx, cy, radius, x1, y1, x2, y2):
     return d1 < radius * radius or d2 < radius * radius
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def touches_any_wall(cx, cy, radius, walls, boxes):
     for w in range(walls.shape[0]):
         if (cx + radius < boxes[w, 0] or cx - radius > boxes[w, 2]
@@ -79,14 +85,15 @@ def touches_any_wall(cx, cy, radius, walls, boxes):
     return False
 
 
-@njit(cache=True)
-def cast_rays(cx, cy, heading, angles, max_range, walls, boxes, others, n_others, robot_radius, out, cand):
+@njit(cache=True, error_model="numpy")
+def cast_rays(cx, cy, heading, dirs, max_range, walls, boxes, others, n_others, robot_radius, out, cand):
     """Centre-to-hit distance of each ray (max_range when nothing is hit) against walls and other robots.
 
+    `dirs` holds (cos a, sin a) of each sensor angle a (see `sensor_directions`).
     `others` holds (x, y) of robots that can be seen; only the first n_others rows are used.  `cand` is an
     int scratch array of at least len(walls) entries (passed in so the hot loop never allocates).
     """
-    n_rays = angles.shape[0]
+    n_rays = dirs.shape[0]
     xmin = cx - max_range
     xmax = cx + max_range
     ymin = cy - max_range
@@ -97,10 +104,12 @@ def cast_rays(cx, cy, heading, angles, max_range, walls, boxes, others, n_others
             continue
         cand[n_cand] = w
         n_cand += 1
+    ch = math.cos(heading)
+    sh = math.sin(heading)
     for j in range(n_rays):
-        a = heading + angles[j]
-        ux = math.cos(a)
-        uy = math.sin(a)
+        # rotate the precomputed sensor direction by the heading: one sincos per robot, not one per ray
+        ux = ch * dirs[j, 0] - sh * dirs[j, 1]
+        uy = sh * dirs[j, 0] + ch * dirs[j, 1]
         dx = ux * max_range
         dy = uy * max_range
         best = max_range

@@ -5,17 +5,18 @@ import numpy as np
 from numba import njit, prange
 
 from .controller import network_action
+from .rng import CH_ACTION, uniform
 from .task import (E_TICK, F_SIGNAL, H, P_MAXT, X, Y, decide_robot, move_robot, score_tick,
                    sense_episode, team_fitness)
 
 
-@njit(cache=True)
-def sense_all(tick, pose, raw, obs, rflag, walls, boxes, angles, params, seed, keys, others, cand):
+@njit(cache=True, error_model="numpy")
+def sense_all(tick, pose, raw, obs, rflag, walls, boxes, dirs, params, seed, keys, others, cand):
     for b in range(pose.shape[0]):
-        sense_episode(b, tick, pose, raw, obs, rflag, walls, boxes, angles, params, seed, keys[b], others, cand)
+        sense_episode(b, tick, pose, raw, obs, rflag, walls, boxes, dirs, params, seed, keys[b], others, cand)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def decide_all(actions, pose, raw, est, params, seed, keys):
     """Start a tick in every episode: advance the clock and turn actions into heading and velocity."""
     for b in range(pose.shape[0]):
@@ -25,39 +26,39 @@ def decide_all(actions, pose, raw, est, params, seed, keys):
             decide_robot(b, r, actions[b, r], tick, pose, raw, params, seed, keys[b])
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def move_all(pose, racc, params, walls, boxes):
     for b in range(pose.shape[0]):
         for r in range(pose.shape[1]):
             move_robot(b, r, pose, racc, params, walls, boxes)
 
 
-@njit(cache=True)
-def finish_all(pose, raw, obs, racc, rflag, goto, est, prev_fit, rewards, solved, walls, boxes, angles,
+@njit(cache=True, error_model="numpy")
+def finish_all(pose, raw, obs, racc, rflag, goto, est, prev_fit, rewards, solved, walls, boxes, dirs,
                pois, home, params, seed, keys, others, cand):
     """End a tick: fitness sample, sensing for the next tick, and the reward (change of team fitness)."""
     for b in range(pose.shape[0]):
         tick = est[b, E_TICK]
         score_tick(b, tick, pose, racc, rflag, goto, est, pois, home, params)
-        sense_episode(b, tick + 1, pose, raw, obs, rflag, walls, boxes, angles, params, seed, keys[b], others, cand)
+        sense_episode(b, tick + 1, pose, raw, obs, rflag, walls, boxes, dirs, params, seed, keys[b], others, cand)
         fit, ok = team_fitness(b, pose, racc, rflag, goto, est, home)
         rewards[b] = fit - prev_fit[b]
         prev_fit[b] = fit
         solved[b] = ok
 
 
-@njit(cache=True)
-def step_all(actions, pose, raw, obs, racc, rflag, goto, est, prev_fit, rewards, solved, walls, boxes, angles,
+@njit(cache=True, error_model="numpy")
+def step_all(actions, pose, raw, obs, racc, rflag, goto, est, prev_fit, rewards, solved, walls, boxes, dirs,
              pois, home, params, seed, keys, others, cand):
     """One tick of every episode with given actions (the env and RL vector-env path)."""
     decide_all(actions, pose, raw, est, params, seed, keys)
     move_all(pose, racc, params, walls, boxes)
-    finish_all(pose, raw, obs, racc, rflag, goto, est, prev_fit, rewards, solved, walls, boxes, angles,
+    finish_all(pose, raw, obs, racc, rflag, goto, est, prev_fit, rewards, solved, walls, boxes, dirs,
                pois, home, params, seed, keys, others, cand)
 
 
-@njit(cache=True, parallel=True)
-def run_controllers(pose, raw, obs, racc, rflag, goto, est, walls, boxes, angles, pois, home, params, seed, keys,
+@njit(cache=True, error_model="numpy", parallel=True)
+def run_controllers(pose, raw, obs, racc, rflag, goto, est, walls, boxes, dirs, pois, home, params, seed, keys,
                     w_ih, w_hh, w_ho, b_h, b_o, hid, out, brain, fitness, solved, traj, record):
     """Whole episodes with the controllers in the loop, episodes spread over the cores.
 
@@ -94,7 +95,36 @@ def run_controllers(pose, raw, obs, racc, rflag, goto, est, walls, boxes, angles
                     traj[b, tick, r, 1] = pose[b, r, Y]
                     traj[b, tick, r, 2] = pose[b, r, H]
             if tick < n_ticks:
-                sense_episode(b, tick + 1, pose, raw, obs, rflag, walls, boxes, angles, params, seed, keys[b],
+                sense_episode(b, tick + 1, pose, raw, obs, rflag, walls, boxes, dirs, params, seed, keys[b],
+                              others, cand)
+        fit, ok = team_fitness(b, pose, racc, rflag, goto, est, home)
+        fitness[b] = fit
+        solved[b] = ok
+
+
+@njit(cache=True, error_model="numpy", parallel=True)
+def run_random(pose, raw, obs, racc, rflag, goto, est, walls, boxes, dirs, pois, home, params, seed, keys,
+               p_left, p_forward, fitness, solved):
+    """Whole episodes of a random team (each robot draws left/forward/right every tick), on all cores.
+
+    The random-policy reference for baselines, and the core's raw-throughput benchmark.
+    """
+    n_ep = pose.shape[0]
+    n_robots = pose.shape[1]
+    n_ticks = int(params[P_MAXT])
+    for b in prange(n_ep):
+        others = np.empty((n_robots, 2), dtype=np.float64)
+        cand = np.empty(walls.shape[0], dtype=np.int64)
+        for tick in range(1, n_ticks + 1):
+            est[b, E_TICK] = tick
+            for r in range(n_robots):
+                u = uniform(seed, keys[b], tick, r, CH_ACTION)
+                action = 0 if u < p_left else (1 if u < p_left + p_forward else 2)
+                decide_robot(b, r, action, tick, pose, raw, params, seed, keys[b])
+                move_robot(b, r, pose, racc, params, walls, boxes)
+            score_tick(b, tick, pose, racc, rflag, goto, est, pois, home, params)
+            if tick < n_ticks:
+                sense_episode(b, tick + 1, pose, raw, obs, rflag, walls, boxes, dirs, params, seed, keys[b],
                               others, cand)
         fit, ok = team_fitness(b, pose, racc, rflag, goto, est, home)
         fitness[b] = fit

@@ -26,14 +26,14 @@ CH_HEADING = 10
 CH_ACTION = 11
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, error_model="numpy", inline="always")
 def _mix(z):
     z = (z ^ (z >> _S30)) * _M1
     z = (z ^ (z >> _S27)) * _M2
     return z ^ (z >> _S31)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def uniform(seed, episode, tick, robot, channel):
     """A float in [0, 1) determined by its coordinates (splitmix64 finaliser over a combined key)."""
     z = _mix(np.uint64(seed) + _GOLDEN)

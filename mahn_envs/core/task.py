@@ -48,7 +48,7 @@ MOVED_MIN = 5.0
 SOLVED_BONUS = 100.0
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def encode_episode(b, tick, raw, obs, rflag, params, seed, key):
     """Turn ray distances into inputs: (d - 6.5)/10.16 in float32, noise, capped at 1, floored to 0 at <= 0.25."""
     f_radius = np.float32(params[P_RADIUS])
@@ -68,8 +68,8 @@ def encode_episode(b, tick, raw, obs, rflag, params, seed, key):
         obs[b, r, 6] = np.float32(rflag[b, r, F_SIGNAL])
 
 
-@njit(cache=True)
-def sense_episode(b, tick, pose, raw, obs, rflag, walls, boxes, angles, params, seed, key, others, cand):
+@njit(cache=True, error_model="numpy")
+def sense_episode(b, tick, pose, raw, obs, rflag, walls, boxes, dirs, params, seed, key, others, cand):
     """Cast every robot's rays and encode them as the inputs of the coming tick.
 
     `others` (R, 2) and `cand` (W,) are scratch arrays, passed in so the hot loop never allocates.
@@ -85,12 +85,12 @@ def sense_episode(b, tick, pose, raw, obs, rflag, walls, boxes, angles, params, 
                     others[n_others, 0] = pose[b, q, X]
                     others[n_others, 1] = pose[b, q, Y]
                     n_others += 1
-        cast_rays(pose[b, r, X], pose[b, r, Y], pose[b, r, H], angles, params[P_RANGE], walls, boxes,
+        cast_rays(pose[b, r, X], pose[b, r, Y], pose[b, r, H], dirs, params[P_RANGE], walls, boxes,
                   others, n_others, radius, raw[b, r], cand)
     encode_episode(b, tick, raw, obs, rflag, params, seed, key)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def decide_robot(b, r, action, tick, pose, raw, params, seed, key):
     """Apply an action (and, for forward, the collision-avoidance reflex) to heading and velocity.
 
@@ -139,7 +139,7 @@ def decide_robot(b, r, action, tick, pose, raw, params, seed, key):
     return corrected
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def move_robot(b, r, pose, racc, params, walls, boxes):
     """Drive straight for one tick; on touching a wall go back to where the tick started (no sliding)."""
     ox = pose[b, r, X]
@@ -155,12 +155,12 @@ def move_robot(b, r, pose, racc, params, walls, boxes):
     return True
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, error_model="numpy", inline="always")
 def _manhattan(x, y, px, py):
     return abs(x - px) + abs(y - py)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def give_signal(b, pose, racc, rflag, est, pois, home):
     """The come-home event: remember where everyone is and whether every POI is covered."""
     n_robots = pose.shape[1]
@@ -180,7 +180,7 @@ def give_signal(b, pose, racc, rflag, est, pois, home):
     est[b, E_SWITCHED] = 1
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def score_tick(b, tick, pose, racc, rflag, goto, est, pois, home, params):
     """Fitness bookkeeping after motion; samples every `period` ticks, the signal at `signal_tick`."""
     period = int(params[P_PERIOD])
@@ -208,7 +208,7 @@ def score_tick(b, tick, pose, racc, rflag, goto, est, pois, home, params):
             racc[b, i, R_END] += max(0.0, (racc[b, i, R_ORIG_DIST] - d2) / RETURN_SCALE)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def team_fitness(b, pose, racc, rflag, goto, est, home):
     """The score if the episode ended now: 1e-6 + patrol + return credit, the penalties, +100 if solved."""
     n_robots = pose.shape[1]

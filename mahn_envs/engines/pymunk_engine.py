@@ -79,7 +79,7 @@ class PymunkEngine:
                 pose[r, T.Y] = y
             body.velocity = (0.0, 0.0)
         kernels.finish_all(sim.pose, sim.raw, sim.obs, sim.racc, sim.rflag, sim.goto, sim.est, sim.prev_fit,
-                           sim.rewards, sim.solved, sim._walls, sim._boxes, sim._angles, sim._pois, sim._home,
+                           sim.rewards, sim.solved, sim._walls, sim._boxes, sim._dirs, sim._pois, sim._home,
                            sim._pvec, sim.seed, sim.keys, sim._others, sim._cand)
         return sim.obs[0], float(sim.rewards[0]), bool(sim.solved[0])
 

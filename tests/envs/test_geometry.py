@@ -5,7 +5,7 @@ import numpy as np
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-from mahn_envs.core.geometry import cast_rays, touches_any_wall, wall_boxes
+from mahn_envs.core.geometry import cast_rays, sensor_directions, touches_any_wall, wall_boxes
 from mahn_envs.maps import load_map
 
 WORLD = load_map("plus")
@@ -13,6 +13,7 @@ WALLS = np.ascontiguousarray(WORLD.walls)
 BOXES = wall_boxes(WALLS)
 ANGLES = np.array([1.3398 - j * 0.53592 for j in range(6)])
 RANGE = 16.66
+DIRS = sensor_directions(ANGLES)
 
 coord = st.floats(-10, 200, allow_nan=False)
 heading = st.floats(-10, 10, allow_nan=False)
@@ -49,7 +50,7 @@ def test_ray_cast_matches_brute_force(cx, cy, h):
     # a centre on a wall is physically impossible (radius 6.5) and numerically ambiguous for both sides
     assume(not touches_any_wall(cx, cy, 0.01, WALLS, BOXES))
     out = np.zeros(6)
-    cast_rays(cx, cy, h, ANGLES, RANGE, WALLS, BOXES, np.zeros((0, 2)), 0, 6.5, out, np.zeros(len(WALLS), np.int64))
+    cast_rays(cx, cy, h, DIRS, RANGE, WALLS, BOXES, np.zeros((0, 2)), 0, 6.5, out, np.zeros(len(WALLS), np.int64))
     ref = [brute_ray(cx, cy, h + a, WALLS, RANGE) for a in ANGLES]
     assert np.allclose(out, ref, atol=1e-7)
 
@@ -59,7 +60,7 @@ def test_ray_cast_matches_brute_force(cx, cy, h):
 def test_ray_sees_a_robot_exactly_where_the_circle_is(cx, cy, h, qx, qy):
     out = np.zeros(6)
     others = np.array([[qx, qy]])
-    cast_rays(cx, cy, h, ANGLES, RANGE, np.zeros((0, 4)), np.zeros((0, 4)), others, 1, 6.5, out, np.zeros(0, np.int64))
+    cast_rays(cx, cy, h, DIRS, RANGE, np.zeros((0, 4)), np.zeros((0, 4)), others, 1, 6.5, out, np.zeros(0, np.int64))
     inside = math.hypot(qx - cx, qy - cy) <= 6.5
     for j, a in enumerate(ANGLES):
         ux, uy = math.cos(h + a), math.sin(h + a)
