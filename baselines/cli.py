@@ -1,0 +1,117 @@
+"""`mahn-baselines`: train / eval / compare RL baselines (a thin layer over train.py, evaluate.py, compare.py)."""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+from typing import Optional, Sequence
+
+from .algos import ALGO_NAMES
+from .train import EVAL_MAPS
+
+
+def _json_dict(text: str) -> dict:
+    try:
+        value = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise argparse.ArgumentTypeError(f"not valid JSON: {exc}") from exc
+    if not isinstance(value, dict):
+        raise argparse.ArgumentTypeError("must be a JSON object, e.g. '{\"learning_rate\": 1e-4}'")
+    return value
+
+
+def _add_task_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--n-episodes", type=int, default=16, help="lock-stepped episodes per batch (slots = x3)")
+    p.add_argument("--max-cycles", type=int, default=1364, help="episode length in ticks (default: the paper's)")
+    p.add_argument("--signal-tick", type=int, default=690, help="tick of the come-home signal")
+    p.add_argument("--reward-scale", type=float, default=0.01, help="training reward = team reward x this")
+    p.add_argument("--eval-every", type=int, default=0, help="robot-steps between evaluations (0: steps/20)")
+    p.add_argument("--threads", type=int, default=1, help="torch threads")
+    p.add_argument("--hyperparams", type=_json_dict, default={}, help="JSON overrides of the SB3 hyper-parameters")
+
+
+def _task_overrides(a: argparse.Namespace) -> dict:
+    return {"n_episodes": a.n_episodes, "max_cycles": a.max_cycles, "signal_tick": a.signal_tick,
+            "reward_scale": a.reward_scale, "eval_every": a.eval_every, "torch_threads": a.threads,
+            "hyperparams": a.hyperparams}
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="mahn-baselines", description=__doc__)
+    sub = parser.add_subparsers(dest="command", required=True)
+
+    t = sub.add_parser("train", help="train one run (PPO, RecurrentPPO or DQN, parameter sharing)")
+    t.add_argument("--algo", choices=ALGO_NAMES, required=True)
+    t.add_argument("--steps", type=int, required=True, help="budget in robot-steps (SB3 timesteps)")
+    t.add_argument("--seed", type=int, default=0)
+    t.add_argument("--out", type=Path, required=True)
+    t.add_argument("--map", default="plus", help="training map")
+    t.add_argument("--progress", action="store_true", help="show a progress bar")
+    _add_task_args(t)
+
+    e = sub.add_parser("eval", help="score a trained run (team fitness, solved) on maps x protocols")
+    e.add_argument("run", type=Path)
+    e.add_argument("--maps", nargs="+", default=list(EVAL_MAPS))
+    e.add_argument("--protocols", nargs="+", default=["training", "sequential"],
+                   help="training (signal at tick 690) and/or sequential (needs mahn_evo.protocols)")
+    e.add_argument("--episodes", type=int, default=1)
+    e.add_argument("--seed", type=int, default=0)
+    e.add_argument("--model", choices=("best", "final"), default="best")
+    e.add_argument("--stochastic", action="store_true", help="sample actions instead of the greedy policy")
+    e.add_argument("--json", action="store_true", help="print the results as JSON")
+
+    c = sub.add_parser("compare", help="several seeds per method at matched budgets, table + plot")
+    c.add_argument("--runs-dir", type=Path, default=Path("runs/baselines"), help="where RL runs live / go")
+    c.add_argument("--algos", nargs="*", default=list(ALGO_NAMES), choices=ALGO_NAMES)
+    c.add_argument("--seeds", nargs="*", type=int, default=[0, 1, 2])
+    c.add_argument("--steps", type=int, default=None,
+                   help="RL budget in robot-steps (default: the largest evolution budget among --evo-runs)")
+    c.add_argument("--no-train", action="store_true", help="only compare runs that already exist")
+    c.add_argument("--evo-runs", nargs="*", type=Path, default=[], help="mahn-evo train output directories")
+    c.add_argument("--out", type=Path, default=Path("docs/results/baselines"))
+    c.add_argument("--points", type=int, default=12, help="budget points in the table")
+    _add_task_args(c)
+    return parser
+
+
+def main(argv: Optional[Sequence[str]] = None) -> int:
+    a = build_parser().parse_args(argv)
+    try:
+        if a.command == "train":
+            from .train import TrainConfig, train
+
+            cfg = TrainConfig(algo=a.algo, steps=a.steps, seed=a.seed, map=a.map, **_task_overrides(a))
+            summary = train(cfg, a.out, progress=a.progress)
+            print(json.dumps(summary, indent=2))
+        elif a.command == "eval":
+            from .evaluate import evaluate_run, format_results
+
+            res = evaluate_run(a.run, maps=a.maps, protocols=a.protocols, episodes=a.episodes, seed=a.seed,
+                               which=a.model, stochastic=a.stochastic)
+            print(json.dumps(res, indent=2) if a.json else format_results(res))
+        else:
+            from .compare import compare, evo_budget, train_missing
+            from .train import default_out, run_exists
+
+            if a.no_train:
+                rl = [default_out(al, s, a.runs_dir) for al in a.algos for s in a.seeds]
+                rl = [d for d in rl if run_exists(d)]
+            else:
+                steps = a.steps if a.steps is not None else evo_budget(a.evo_runs)
+                if steps is None:
+                    raise ValueError("give --steps (or --evo-runs to match their budget)")
+                rl = train_missing(a.algos, a.seeds, steps, a.runs_dir, _task_overrides(a))
+            payload = compare(rl, a.evo_runs, a.out, points=a.points)
+            from .compare import markdown_table
+
+            print(markdown_table(payload["table"]))
+            print(f"written: {a.out}/comparison.{{csv,md,json,png}}")
+    except (ValueError, FileNotFoundError, NotImplementedError) as exc:
+        print(f"mahn-baselines: error: {exc}", file=sys.stderr)
+        return 2
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

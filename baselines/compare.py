@@ -1,0 +1,216 @@
+"""HyperNEAT versus RL at matched budgets: curves, table and plot of training-map fitness and solved rate.
+
+Budget unit: robot-steps (one robot simulated for one tick).  An RL run's budget is SB3's `num_timesteps` (every
+slot is one robot); an evolution run's budget is `evaluations x max_cycles x robots` (every team evaluated is one
+episode of 1364 ticks for 3 robots), read from its `log.csv` (`evaluations` is cumulative).
+Both sides report the best team found so far, scored on the training map: evolution's `best_fitness` column
+(its champion so far), and for RL the greedy policy of the best checkpoint so far (`eval_log.csv`).  Solved rate =
+fraction of seeds whose best-so-far team solves the task by that budget.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Optional, Sequence
+
+import numpy as np
+
+from .io import read_csv, read_json, write_csv, write_json
+
+ROBOTS = 3
+TICKS = 1364
+
+
+@dataclass
+class Curve:
+    """One run's best-so-far fitness and solved flag against budget (robot-steps)."""
+
+    method: str
+    seed: Any
+    budget: np.ndarray
+    fitness: np.ndarray
+    solved: np.ndarray
+    source: str
+
+    def at(self, budget: float) -> tuple[float, float]:
+        """Best-so-far values at a budget (NaN before the run's first record or beyond its end)."""
+        if budget > self.budget[-1] * 1.0001:
+            return math.nan, math.nan
+        i = int(np.searchsorted(self.budget, budget, side="right")) - 1
+        if i < 0:
+            return math.nan, math.nan
+        return float(self.fitness[i]), float(self.solved[i])
+
+
+def _truthy(v: str) -> bool:
+    return str(v).strip().lower() in ("1", "true", "yes", "1.0")
+
+
+def _best_so_far(budget: list[float], fitness: list[float], solved: list[bool]) -> tuple[np.ndarray, ...]:
+    order = np.argsort(budget, kind="stable")
+    b = np.asarray(budget, dtype=np.float64)[order]
+    f = np.maximum.accumulate(np.asarray(fitness, dtype=np.float64)[order])
+    s = np.maximum.accumulate(np.asarray(solved, dtype=np.float64)[order])
+    return b, f, s
+
+
+def rl_curve(run_dir: "str | Path") -> Curve:
+    run_dir = Path(run_dir)
+    cfg = read_json(run_dir / "config.json")
+    rows = read_csv(run_dir / "eval_log.csv")
+    if not rows:
+        raise ValueError(f"{run_dir}/eval_log.csv has no rows")
+    m = cfg["map"]
+    b, f, s = _best_so_far([float(r["steps"]) for r in rows], [float(r[f"fitness_{m}"]) for r in rows],
+                           [_truthy(r[f"solved_{m}"]) for r in rows])
+    return Curve(cfg["algo"], cfg["seed"], b, f, s, str(run_dir))
+
+
+def evo_curve(run_dir: "str | Path", ticks: int = TICKS, robots: int = ROBOTS) -> Curve:
+    """An `mahn-evo train` run: `log.csv` (generation, evaluations, best_fitness, solved) + `summary.json`."""
+    run_dir = Path(run_dir)
+    rows = read_csv(run_dir / "log.csv")
+    if not rows:
+        raise ValueError(f"{run_dir}/log.csv has no rows")
+    missing = {"evaluations", "best_fitness", "solved"} - set(rows[0])
+    if missing:
+        raise ValueError(f"{run_dir}/log.csv lacks column(s) {sorted(missing)}")
+    summary_path = run_dir / "summary.json"
+    summary = read_json(summary_path) if summary_path.exists() else {}
+    mode = summary.get("mode", "unknown")
+    b, f, s = _best_so_far([float(r["evaluations"]) * ticks * robots for r in rows],
+                           [float(r["best_fitness"]) for r in rows], [_truthy(r["solved"]) for r in rows])
+    return Curve(f"hyperneat_{mode}", summary.get("seed", run_dir.name), b, f, s, str(run_dir))
+
+
+def budget_grid(curves: Sequence[Curve], points: int = 12) -> np.ndarray:
+    """Log-spaced budgets from the smallest positive first record to the largest common-ish end."""
+    ends = [c.budget[-1] for c in curves]
+    starts = [c.budget[c.budget > 0][0] for c in curves if np.any(c.budget > 0)]
+    lo = max(min(starts) if starts else 1.0, 1.0)
+    hi = max(ends)
+    if hi <= lo:
+        return np.array([hi])
+    return np.unique(np.round(np.geomspace(lo, hi, points)))
+
+
+def aggregate(curves: Sequence[Curve], budgets: np.ndarray) -> list[dict[str, Any]]:
+    rows = []
+    for method in sorted({c.method for c in curves}):
+        runs = [c for c in curves if c.method == method]
+        for b in budgets:
+            vals = [c.at(b) for c in runs]
+            f = np.array([v[0] for v in vals if not math.isnan(v[0])])
+            s = np.array([v[1] for v in vals if not math.isnan(v[1])])
+            rows.append({"method": method, "budget_robot_steps": int(b), "runs": int(f.size),
+                         "fitness_mean": round(float(f.mean()), 4) if f.size else "",
+                         "fitness_std": round(float(f.std()), 4) if f.size else "",
+                         "solved_rate": round(float(s.mean()), 4) if s.size else ""})
+    return rows
+
+
+def final_table(curves: Sequence[Curve]) -> list[dict[str, Any]]:
+    """Per method at each run's full budget: seeds, budget, fitness mean/std/max, solved rate."""
+    out = []
+    for method in sorted({c.method for c in curves}):
+        runs = [c for c in curves if c.method == method]
+        f = np.array([c.fitness[-1] for c in runs])
+        s = np.array([c.solved[-1] for c in runs])
+        first = [c.budget[int(np.argmax(c.solved > 0))] for c in runs if np.any(c.solved > 0)]
+        out.append({"method": method, "runs": len(runs), "budget_robot_steps": int(max(c.budget[-1] for c in runs)),
+                    "fitness_mean": round(float(f.mean()), 3), "fitness_std": round(float(f.std()), 3),
+                    "fitness_max": round(float(f.max()), 3), "solved_rate": round(float(s.mean()), 3),
+                    "median_budget_to_solve": int(np.median(first)) if first else ""})
+    return out
+
+
+def markdown_table(rows: Sequence[dict[str, Any]]) -> str:
+    if not rows:
+        return ""
+    keys = list(rows[0])
+    lines = ["| " + " | ".join(keys) + " |", "|" + "---|" * len(keys)]
+    for r in rows:
+        lines.append("| " + " | ".join(str(r[k]) for k in keys) + " |")
+    return "\n".join(lines)
+
+
+def plot(curves: Sequence[Curve], budgets: np.ndarray, path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, (ax_f, ax_s) = plt.subplots(1, 2, figsize=(11, 4.2))
+    for method in sorted({c.method for c in curves}):
+        agg = [r for r in aggregate([c for c in curves if c.method == method], budgets) if r["runs"]]
+        x = np.array([r["budget_robot_steps"] for r in agg], dtype=float)
+        mean = np.array([r["fitness_mean"] for r in agg], dtype=float)
+        std = np.array([r["fitness_std"] for r in agg], dtype=float)
+        ax_f.plot(x, mean, marker="o", ms=3, label=method)
+        ax_f.fill_between(x, mean - std, mean + std, alpha=0.2)
+        ax_s.plot(x, [r["solved_rate"] for r in agg], marker="o", ms=3, label=method)
+    for ax, ylabel in ((ax_f, "best team fitness so far (training map)"), (ax_s, "solved rate (fraction of seeds)")):
+        ax.set_xscale("log")
+        ax.set_xlabel("budget (robot-steps = teams x 1364 ticks x 3 robots)")
+        ax.set_ylabel(ylabel)
+        ax.grid(alpha=0.3)
+    ax_f.axhline(100, color="grey", ls=":", lw=1)
+    ax_s.set_ylim(-0.05, 1.05)
+    ax_s.legend(fontsize=8)
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.stem}.tmp{path.suffix}")
+    fig.savefig(tmp, dpi=120)
+    plt.close(fig)
+    tmp.replace(path)
+
+
+def compare(rl_runs: Sequence["str | Path"], evo_runs: Sequence["str | Path"], out: "str | Path",
+            points: int = 12) -> dict[str, Any]:
+    """Read runs, write comparison.{csv,md,json,png} into `out`; returns the JSON payload."""
+    curves = [rl_curve(d) for d in rl_runs] + [evo_curve(d) for d in evo_runs]
+    if not curves:
+        raise ValueError("nothing to compare: give RL run directories and/or --evo-runs")
+    out = Path(out)
+    budgets = budget_grid(curves, points)
+    rows = aggregate(curves, budgets)
+    table = final_table(curves)
+    write_csv(out / "comparison.csv", list(rows[0]), rows)
+    md = ["# HyperNEAT vs RL baselines (training map, best-so-far team)", "",
+          "Budget in robot-steps; evolution: teams evaluated x 1364 ticks x 3 robots.", "",
+          "## At full budget", "", markdown_table(table), "", "## Versus budget", "", markdown_table(rows), ""]
+    from .io import _atomic_write_text
+
+    _atomic_write_text(out / "comparison.md", "\n".join(md))
+    payload = {"budgets": budgets.tolist(), "table": table, "curves": [
+        {"method": c.method, "seed": c.seed, "source": c.source, "budget": c.budget.tolist(),
+         "fitness": c.fitness.tolist(), "solved": c.solved.astype(bool).tolist()} for c in curves]}
+    write_json(out / "comparison.json", payload)
+    plot(curves, budgets, out / "comparison.png")
+    return payload
+
+
+def train_missing(algos: Sequence[str], seeds: Sequence[int], steps: int, runs_dir: "str | Path",
+                  overrides: Optional[dict[str, Any]] = None, log=print) -> list[Path]:
+    """Train every (algo, seed) run that has no `summary.json` yet (so an interrupted comparison resumes)."""
+    from .train import TrainConfig, default_out, run_exists, train
+
+    dirs = []
+    for algo in algos:
+        for seed in seeds:
+            d = default_out(algo, seed, runs_dir)
+            dirs.append(d)
+            if run_exists(d):
+                log(f"[skip] {d} already trained")
+                continue
+            log(f"[train] {algo} seed {seed}: {steps} robot-steps -> {d}")
+            s = train(TrainConfig(algo=algo, steps=steps, seed=seed, **(overrides or {})), d)
+            log(f"        best {s['best']}  ({s['wall_time']} s, {s['robot_steps_per_second']} robot-steps/s)")
+    return dirs
+
+
+def evo_budget(evo_runs: Sequence["str | Path"]) -> Optional[int]:
+    """The largest evolution budget among the runs (robot-steps), to match RL's training budget to it."""
+    ends = [int(evo_curve(d).budget[-1]) for d in evo_runs]
+    return max(ends) if ends else None

@@ -1,0 +1,74 @@
+"""Score a trained run with the metric of `mahn-evo eval` (team fitness, solved) on maps x protocols.
+
+The task parameters (episode length, signal tick) come from the run's `config.json`, so a model is scored on the
+task it was trained for.  With the default noise-free task and a greedy policy every episode is identical, so
+one episode is exact; `episodes` > 1 matters for `stochastic=True` (sampled actions) or noisy protocols.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any, Sequence
+
+from .algos import get_algo, load_model
+from .io import write_json
+from .policy import SB3TeamPolicy
+from .protocols import run_protocol
+from .train import EVAL_MAPS, load_config
+
+PROTOCOL_NAMES = ("training", "sequential")
+
+
+def model_path(run_dir: "str | Path", which: str = "best") -> Path:
+    """`best` (best training-map fitness seen during training; falls back to final) or `final`."""
+    run_dir = Path(run_dir)
+    if which not in ("best", "final"):
+        raise ValueError(f"which must be 'best' or 'final', got {which!r}")
+    best = run_dir / "best_model.zip"
+    path = best if which == "best" and best.exists() else run_dir / "model.zip"
+    if not path.exists():
+        raise FileNotFoundError(f"no trained model in {run_dir} (expected model.zip); train it first")
+    return path
+
+
+def evaluate_run(run_dir: "str | Path", maps: Sequence[str] = EVAL_MAPS,
+                 protocols: Sequence[str] = ("training",), episodes: int = 1, seed: int = 0,
+                 which: str = "best", stochastic: bool = False, write: bool = True) -> dict[str, Any]:
+    """Evaluate a run directory; returns (and writes `eval.json`) {protocol: {map: summary}}.
+
+    A protocol that is not available (e.g. `sequential` before `mahn_evo.protocols` exists) is reported as
+    `{"error": message}` for that protocol instead of aborting the other evaluations.
+    """
+    import torch
+
+    cfg = load_config(run_dir)
+    torch.set_num_threads(max(1, cfg.torch_threads))
+    path = model_path(run_dir, which)
+    model = load_model(cfg.algo, str(path))
+    policy = SB3TeamPolicy(model, deterministic=not stochastic)
+    results: dict[str, Any] = {"run": str(run_dir), "algo": cfg.algo, "seed": cfg.seed, "model": path.name,
+                               "deterministic": not stochastic, "episodes": episodes, "eval_seed": seed,
+                               "recurrent": get_algo(cfg.algo).recurrent, "protocols": {}}
+    for proto in protocols:
+        per_map: dict[str, Any] = {}
+        for m in maps:
+            try:
+                per_map[m] = run_protocol(proto, policy, m, cfg.task_params, episodes=episodes, seed=seed).summary()
+            except NotImplementedError as exc:
+                per_map = {"error": str(exc)}
+                break
+        results["protocols"][proto] = per_map
+    if write:
+        write_json(Path(run_dir) / "eval.json", results)
+    return results
+
+
+def format_results(results: dict[str, Any]) -> str:
+    lines = [f"{results['run']}  ({results['algo']}, seed {results['seed']}, {results['model']})",
+             f"{'protocol':<12}{'map':<18}{'fitness':>10}{'solved':>8}{'rate':>7}"]
+    for proto, per_map in results["protocols"].items():
+        if "error" in per_map:
+            lines.append(f"{proto:<12}unavailable: {per_map['error']}")
+            continue
+        for m, s in per_map.items():
+            lines.append(f"{proto:<12}{m:<18}{s['fitness']:>10.3f}{str(s['solved']):>8}{s['solved_rate']:>7.2f}")
+    return "\n".join(lines)
