@@ -10,7 +10,7 @@ from typing import Mapping, Sequence
 import numpy as np
 
 from .controllers import TeamControllers
-from .core.controller import network_action
+from .core.controller import network_action, transposed
 
 
 class ControllerPolicy:
@@ -26,6 +26,7 @@ class ControllerPolicy:
         if len(agents) != controllers.n_robots:
             raise ValueError(f"{len(agents)} agents for a team of {controllers.n_robots} controllers")
         self.controllers = controllers.as_batch()
+        self._weights = transposed(self.controllers)
         self.agents = list(agents)
         n_hidden = controllers.w_hh.shape[-1]
         R = len(agents)
@@ -33,7 +34,7 @@ class ControllerPolicy:
         self._hid = np.zeros((1, R, n_hidden), dtype=np.float32)
         self._out = np.zeros((1, R, 3), dtype=np.float32)
         self._brain = np.zeros((1, R), dtype=np.int64)
-        self._tmp = np.zeros(n_hidden, dtype=np.float32)
+        self._tmp = np.zeros(n_hidden + 3, dtype=np.float32)
 
     def reset(self) -> None:
         self._hid[:] = 0.0
@@ -46,14 +47,12 @@ class ControllerPolicy:
         return self._out[0].copy()
 
     def act(self, observations: Mapping[str, np.ndarray]) -> dict[str, int]:
-        c = self.controllers
         actions = {}
         for r, agent in enumerate(self.agents):
             if agent not in observations:
                 continue
             self._obs[0, r] = observations[agent]
             sig = 1 if self._obs[0, r, 6] > 0.5 else 0
-            a = network_action(0, r, self._obs, sig, c.w_ih, c.w_hh, c.w_ho, c.b_h, c.b_o,
-                               self._hid, self._out, self._brain, self._tmp)
+            a = network_action(0, r, self._obs, sig, *self._weights, self._hid, self._out, self._brain, self._tmp)
             actions[agent] = int(a) if a <= 2 else 1  # NaN outputs cannot occur with finite weights
         return actions

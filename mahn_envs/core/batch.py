@@ -15,6 +15,7 @@ from ..khepera import DEFAULT_MODEL, KheperaModel
 from ..maps import World, load_map
 from . import kernels
 from . import task as T
+from .controller import transposed
 from .geometry import sensor_directions, touches_any_wall, wall_boxes
 from .params import TaskParams
 
@@ -240,7 +241,7 @@ class BatchSim:
         traj = np.zeros((B, T_ + 1, R, 4)) if record else np.zeros((1, 1, 1, 4))
         kernels.run_controllers(self.pose, self.raw, self.obs, self.racc, self.rflag, self.goto, self.est,
                                 self._walls, self._boxes, self._dirs, self._pois, self._home, self._pvec,
-                                self.seed, self.keys, ctrl.w_ih, ctrl.w_hh, ctrl.w_ho, ctrl.b_h, ctrl.b_o,
+                                self.seed, self.keys, *transposed(ctrl),
                                 hid, out, brain, fitness, solved, traj, record)
         self.prev_fit[:] = fitness
         self.solved[:] = solved

@@ -59,7 +59,7 @@ def step_all(actions, pose, raw, obs, racc, rflag, goto, est, prev_fit, rewards,
 
 @njit(cache=True, error_model="numpy", parallel=True)
 def run_controllers(pose, raw, obs, racc, rflag, goto, est, walls, boxes, dirs, pois, home, params, seed, keys,
-                    w_ih, w_hh, w_ho, b_h, b_o, hid, out, brain, fitness, solved, traj, record):
+                    wt_ih, wt_hh, wt_ho, b_h, b_o, hid, out, brain, fitness, solved, traj, record):
     """Whole episodes with the controllers in the loop, episodes spread over the cores.
 
     State arrays must hold the reset state (poses placed, first sensing done).  With `record`, traj[b, t]
@@ -71,7 +71,7 @@ def run_controllers(pose, raw, obs, racc, rflag, goto, est, walls, boxes, dirs, 
     for b in prange(n_ep):
         others = np.empty((n_robots, 2), dtype=np.float64)
         cand = np.empty(walls.shape[0], dtype=np.int64)
-        tmp_h = np.empty(w_hh.shape[3], dtype=np.float32)
+        tmp_h = np.empty(wt_hh.shape[3] + 3, dtype=np.float32)
         if record:
             for r in range(n_robots):
                 traj[b, 0, r, 0] = pose[b, r, X]
@@ -81,7 +81,7 @@ def run_controllers(pose, raw, obs, racc, rflag, goto, est, walls, boxes, dirs, 
         for tick in range(1, n_ticks + 1):
             est[b, E_TICK] = tick
             for r in range(n_robots):
-                action = network_action(b, r, obs, rflag[b, r, F_SIGNAL], w_ih, w_hh, w_ho, b_h, b_o,
+                action = network_action(b, r, obs, rflag[b, r, F_SIGNAL], wt_ih, wt_hh, wt_ho, b_h, b_o,
                                         hid, out, brain, tmp_h)
                 decide_robot(b, r, action, tick, pose, raw, params, seed, keys[b])
                 if record:
