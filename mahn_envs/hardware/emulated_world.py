@@ -19,7 +19,7 @@ from typing import Any, Mapping, Optional, Sequence, Union
 
 import numpy as np
 
-from ..core.geometry import cast_rays, touches_any_wall, wall_boxes
+from ..core.geometry import cast_rays, sensor_directions, touches_any_wall, wall_boxes
 from ..khepera import DEFAULT_MODEL, KheperaModel
 from ..maps import World, load_map
 from .calibration import PAPER, RAW_MAX, make_calibration, relative_noise
@@ -79,6 +79,7 @@ class EmulatedWorld:
         a = model.sensor_angles
         # firmware ring order: back-left, the task's six (left to right), back-right, back
         self._angles = np.array([BACK_ANGLES[0], *a, BACK_ANGLES[1], BACK_ANGLES[2]], dtype=np.float64)
+        self._dirs = sensor_directions(self._angles)
         self._rays = np.zeros(9)
         self._cand = np.zeros(self._walls.shape[0], dtype=np.int64)
         self._others = np.zeros((max(n - 1, 1), 2))
@@ -179,7 +180,7 @@ class EmulatedWorld:
                     if q != k:
                         self._others[n_others] = other.pose[:2]
                         n_others += 1
-            cast_rays(float(rob.pose[0]), float(rob.pose[1]), float(rob.pose[2]), self._angles,
+            cast_rays(float(rob.pose[0]), float(rob.pose[1]), float(rob.pose[2]), self._dirs,
                       self.model.sensor_range, self._walls, self._boxes, self._others, n_others, self.model.radius,
                       self._rays, self._cand)
             gap = self._rays - self.model.radius

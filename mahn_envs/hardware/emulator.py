@@ -103,6 +103,7 @@ class KheperaEmulator:
         self._conns: list[Optional[socket.socket]] = [None] * n_robots
         self._log: list[deque] = [deque(maxlen=200_000) for _ in range(n_robots)]
         self.connections = [0] * n_robots
+        self.errors: list[str] = []  # internal errors while answering (tests assert there are none)
         self.addresses: list[tuple[str, int]] = []
 
     # ------------------------------------------------------------------ lifecycle
@@ -235,7 +236,11 @@ class KheperaEmulator:
                 del buf[:cut + 1]
                 if not line:
                     continue
-                reply = self._process(k, line)
+                try:
+                    reply = self._process(k, line)
+                except Exception as exc:  # noqa: BLE001 - a bug here must not kill the robot's server
+                    self.errors.append(f"robot {k}, command {line!r}: {type(exc).__name__}: {exc}")
+                    reply = P.format_error(self.eol)
                 if reply is _CLOSE:
                     return
                 if reply:

@@ -131,10 +131,17 @@ class RobotLink:
         self.open()
 
     # ------------------------------------------------------------------ commands
-    def transact(self, command: P.Command) -> P.Reply:
-        """Send `command` and return its parsed reply (with the retry policy)."""
+    def transact(self, command: P.Command, policy: Optional[RetryPolicy] = None) -> P.Reply:
+        """Send `command` and return its parsed reply (with the retry policy, or `policy` for this one)."""
         self.send(command)
-        return self.finish()
+        return self.finish(policy)
+
+    def cancel(self) -> None:
+        """Give up on the pending command (if any): its reply, if it still comes, will be discarded."""
+        if self._pending is not None:
+            if self._port is not None and self._sent:
+                self._abandon(self._pending)
+            self._pending = None
 
     def send(self, command: P.Command) -> None:
         """Put `command` on the line; its reply is read by :meth:`finish`.  Write errors are retried there."""
@@ -147,8 +154,9 @@ class RobotLink:
         self._t_sent = time.monotonic()
         self._sent = self._write(command)
 
-    def finish(self) -> P.Reply:
+    def finish(self, policy: Optional[RetryPolicy] = None) -> P.Reply:
         """Read the reply to the pending command, resending on timeout and reopening a dropped link."""
+        policy = policy or self.policy
         command = self._pending
         if command is None:
             raise RuntimeError(f"robot {self.name!r}: finish() without a pending command")
@@ -160,20 +168,20 @@ class RobotLink:
                 try:
                     if not self._sent:
                         raise ConnectionError("write failed")
-                    reply = self._read_reply(command, time.monotonic() + self.policy.timeout)
+                    reply = self._read_reply(command, time.monotonic() + policy.timeout)
                     done = True
                     self.stats.last_round_trip = time.monotonic() - self._t_sent
                     return reply
                 except _NoLine:
                     self._abandon(command)
-                    if attempt >= self.policy.attempts:
+                    if attempt >= policy.attempts:
                         raise RobotTimeout(self.name, command.text,
-                                           f"no reply within {self.policy.timeout:g} s on {attempt} attempt(s) "
+                                           f"no reply within {policy.timeout:g} s on {attempt} attempt(s) "
                                            f"({self.url})") from None
                     attempt += 1
                     self.stats.retries += 1
                 except _link_errors() + (ConnectionError,) as exc:
-                    if reconnects >= self.policy.reconnects:
+                    if reconnects >= policy.reconnects:
                         raise LinkError(self.name, command.text, f"link to {self.url} failed: {exc}") from exc
                     reconnects += 1
                     try:
@@ -181,8 +189,8 @@ class RobotLink:
                     except LinkError as exc2:
                         raise LinkError(self.name, command.text,
                                         f"link to {self.url} failed ({exc}) and could not be reopened") from exc2
-                if self.policy.backoff:
-                    time.sleep(self.policy.backoff)
+                if policy.backoff:
+                    time.sleep(policy.backoff)
                 self._buf.clear()
                 self._flush_input()
                 self._sent = self._write(command)

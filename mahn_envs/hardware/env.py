@@ -1,0 +1,586 @@
+"""KheperaHardwareEnv: the patrol-and-return env's interface driving real Khepera III robots (or the emulator).
+
+Same agents, spaces and step semantics as ``PatrolReturnEnv``: one observation per agent (six IR values in
+[0, 1], 1 = free, values at or below the 0.25 floor read 0, then the come-home signal), one Discrete(3) action
+(0 left, 1 forward with the collision-avoidance reflex, 2 right), a tick of 33 ms.  One step:
+
+1. every action goes through the simulator's reflex (on the un-floored readings the agent saw) to a wheel
+   motion, then to a ``D`` command in firmware units; the commands go out to all robots, then the replies are
+   read (one round trip for the team);
+2. the env waits for the tick's deadline (real-time pacing; the measured period is in ``infos``);
+3. ``N`` is read from every robot and calibrated to [0, 1]; the signal schedule is applied; those are the
+   next observations.
+
+Safety: every robot is sent ``D,l0,l0`` on ``close()``, at the end of an episode, on any exception inside
+``reset``/``step`` (including Ctrl-C and a robot that stops answering), at interpreter exit and on SIGTERM;
+the env is a context manager.  A robot whose link is dead cannot be reached by anyone: use a robot- or
+bridge-side watchdog for that case (docs/hardware.md).
+
+Rewards need to know where the robots are: give ``pose_source`` (an overhead tracker; the emulator provides
+one) and the env scores the run with the simulator's own fitness code, so ``team_fitness`` / ``solved`` mean
+exactly what they mean in simulation.  Without it rewards are 0 and those infos are None.
+"""
+from __future__ import annotations
+
+import atexit
+import signal as _signal
+import threading
+import time
+import warnings
+from typing import Any, Callable, Mapping, Optional, Sequence, Union
+
+import numpy as np
+from gymnasium import spaces
+from pettingzoo import ParallelEnv
+
+from ..core import task as T
+from ..core.params import TaskParams
+from ..khepera import DEFAULT_MODEL, KheperaModel
+from ..maps import World, load_map
+from ..patrol_return.env import agent_names, coerce_action, policy_coordinate
+from . import protocol as P
+from .calibration import make_calibration
+from .clock import RealClock
+from .errors import HardwareError, ProtocolError
+from .kinematics import WHEEL_BASE_CM, Drive, speed_unit_for_version, SPEED_UNIT_V3
+from .reflex import Motion, reflex_motion
+from .transport import RetryPolicy, RobotLink, open_url
+
+PoseSource = Callable[[], Any]
+Placement = Callable[[dict], None]
+
+
+def prompt_placement(targets: Mapping[str, Optional[tuple]], input_fn: Callable[[str], str] = input,
+                     print_fn: Callable[..., None] = print) -> None:
+    """Ask the operator to put the robots at their start poses and press Enter."""
+    print_fn("Place the robots (map frame: x right, y up, cm; heading in degrees, 90 = up):")
+    for agent, pose in targets.items():
+        if pose is None:
+            print_fn(f"  {agent}: anywhere safe")
+        else:
+            print_fn(f"  {agent}: x={pose[0]:.1f} y={pose[1]:.1f} heading={np.degrees(pose[2]) % 360:.0f} deg")
+    input_fn("Robots are stopped. Press Enter when they are in place... ")
+
+
+def _no_placement(targets: Mapping[str, Any]) -> None:
+    return None
+
+
+def _sigterm_to_exit(signum: int, frame: Any) -> None:
+    raise SystemExit(128 + signum)
+
+
+class KheperaHardwareEnv(ParallelEnv):
+    """Real Khepera III robots (one per pyserial URL in `ports`) behind the patrol_return_v0 interface.
+
+    Key arguments (all optional but `ports`):
+      forward_speed, turn_rate: cm/s and rad/s of "forward" and "turn" (default: the simulator's 9, 2.0933);
+      wheel_base: cm; speed_unit: firmware units per mm/s, "auto" (from ``B``) or a number / one per robot;
+      calibration: "paper" (default), "linear", a calibration object or a function raw -> [0, 1];
+      sensor_floor: observations at or below it read 0 (default: the model's 0.25, as in simulation);
+      reflex: the collision-avoidance reflex (on by default, as in simulation);
+      period: seconds per tick (default 0.033); time_scale or clock: pacing clock (see hardware.clock);
+      max_cycles, signal_tick, auto_signal: as in the simulated env; signal_schedule: {agent: tick} extra
+      scheduled come-home signals; call_home()/clear_signal() set them by hand;
+      placement: "prompt" (default: ask on stdin), "none", or a function {agent: pose} -> None;
+      pose_source: function -> (n, 3) poses or {agent: pose}, enables rewards and ``infos['pose']``;
+      retry: a RetryPolicy (timeouts, attempts, reconnects); baudrate, eol: line settings.
+    """
+
+    metadata = {"name": "khepera_hardware_v0", "render_modes": ["human", "rgb_array"], "render_fps": 30,
+                "is_parallelizable": True}
+
+    def __init__(self, ports: Sequence[str], *, map: Union[str, World] = "plus",
+                 forward_speed: Optional[float] = None, turn_rate: Optional[float] = None,
+                 wheel_base: float = WHEEL_BASE_CM, speed_unit: Union[str, float, Sequence[float]] = "auto",
+                 calibration: Any = "paper", sensor_floor: Optional[float] = None, reflex: bool = True,
+                 period: Optional[float] = None, time_scale: float = 1.0, clock: Any = None,
+                 max_cycles: int = 1364, signal_tick: int = 690, auto_signal: bool = True,
+                 signal_schedule: Optional[Mapping[str, int]] = None,
+                 placement: Union[str, Placement, None] = "prompt", pose_source: Optional[PoseSource] = None,
+                 retry: Optional[RetryPolicy] = None, baudrate: int = 115200, eol: str = "\n",
+                 render_mode: Optional[str] = None, model: KheperaModel = DEFAULT_MODEL,
+                 catch_sigterm: bool = True, opener: Callable = open_url) -> None:
+        self._links: list[RobotLink] = []
+        self._closed = False
+        self._prev_sigterm: Any = None
+        self.agents: list[str] = []
+        if isinstance(ports, (str, bytes)) or not isinstance(ports, Sequence) or len(ports) == 0:
+            raise ValueError("ports must be a non-empty list of pyserial URLs, one per robot "
+                             "(e.g. ['/dev/rfcomm0', 'socket://127.0.0.1:4001'])")
+        for p in ports:
+            if not isinstance(p, str) or not p:
+                raise ValueError(f"every port must be a non-empty string (a pyserial URL), got {p!r}")
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(f"render_mode must be one of {self.metadata['render_modes']} or None, "
+                             f"got {render_mode!r}")
+        if render_mode is not None and pose_source is None:
+            raise ValueError("rendering real robots needs to know where they are: pass pose_source")
+        self.world = load_map(map)
+        self.model = model
+        n = len(ports)
+        self.ports = list(ports)
+        self.possible_agents = agent_names(n)
+        self.agent_index = {a: k for k, a in enumerate(self.possible_agents)}
+        self.policy_coordinates = {a: policy_coordinate(k, n) for k, a in enumerate(self.possible_agents)}
+        self.drive = Drive(model.speed if forward_speed is None else float(forward_speed),
+                           model.turn_rate if turn_rate is None else float(turn_rate), float(wheel_base))
+        self.calibration = make_calibration(calibration)
+        self.sensor_floor = float(model.sensor_floor if sensor_floor is None else sensor_floor)
+        if not 0.0 <= self.sensor_floor < 1.0:
+            raise ValueError(f"sensor_floor must be in [0, 1), got {sensor_floor!r}")
+        self.reflex = bool(reflex)
+        self.period = float(model.dt if period is None else period)
+        if not (self.period > 0 and np.isfinite(self.period)):
+            raise ValueError(f"period must be a positive number of seconds, got {period!r}")
+        self.clock = clock if clock is not None else RealClock(time_scale)
+        self.params = TaskParams(max_cycles=max_cycles, signal_tick=signal_tick, auto_signal=auto_signal)
+        self._pvec = self.params.vector(model)
+        self.signal_schedule = self._check_schedule(signal_schedule)
+        self._placement = self._check_placement(placement)
+        if pose_source is not None and not callable(pose_source):
+            raise ValueError("pose_source must be a function returning the robots' (x, y, heading)")
+        if pose_source is not None and n != self.world.n_robots:
+            raise ValueError(f"scoring needs one robot per start pose of map {self.world.name!r} "
+                             f"({self.world.n_robots}), got {n} ports")
+        self.pose_source = pose_source
+        self.retry = retry if retry is not None else RetryPolicy()
+        self._stop_policy = RetryPolicy(timeout=self.retry.timeout, attempts=min(2, self.retry.attempts),
+                                        reconnects=min(1, self.retry.reconnects))
+        self.render_mode = render_mode
+        self._renderer = None
+        self._obs_space = spaces.Box(0.0, 1.0, (7,), np.float32)
+        self._act_space = spaces.Discrete(3)
+        self.observation_spaces = {a: self._obs_space for a in self.possible_agents}
+        self.action_spaces = {a: self._act_space for a in self.possible_agents}
+        xmin, ymin, xmax, ymax = self.world.bounds
+        lo = np.tile(np.array([xmin, ymin, -np.inf, 0.0], dtype=np.float32), n)
+        hi = np.tile(np.array([xmax, ymax, np.inf, 1.0], dtype=np.float32), n)
+        self.state_space = spaces.Box(lo, hi, dtype=np.float32)
+        # per-episode state
+        self._q = np.ones((n, 6))  # un-floored calibrated readings the agents last saw (the reflex uses them)
+        self._raw = np.zeros((n, 11), dtype=np.int64)
+        self._moving = np.zeros(n, dtype=bool)
+        self._tick = 0
+        self._pose = np.full((1, n, 4), np.nan)
+        self._racc = np.zeros((1, n, 4))
+        self._rflag = np.zeros((1, n, 3), dtype=np.uint8)
+        self._goto = np.zeros((1, self.world.pois.shape[0]))
+        self._est = np.zeros((1, 3), dtype=np.int64)
+        self._fitness = 0.0
+        self._solved = False
+        self._t_read = 0.0
+        self._deadline = 0.0
+        self._period_measured = 0.0
+        self.overruns = 0
+        self.last_stop_report: dict[str, Optional[str]] = {}
+        self.firmware: dict[str, Optional[tuple[int, int]]] = {}
+        self.speed_units: list[float] = []
+        # connect; on any failure stop and close what was opened
+        self._atexit_hook = self._at_exit
+        atexit.register(self._atexit_hook)
+        if catch_sigterm:
+            self._install_sigterm()
+        try:
+            self._connect(opener, baudrate, eol, speed_unit)
+        except BaseException:
+            self.close()
+            raise
+
+    # ------------------------------------------------------------------ configuration checks
+    def _check_schedule(self, schedule: Optional[Mapping[str, int]]) -> dict[str, int]:
+        if schedule is None:
+            return {}
+        if not isinstance(schedule, Mapping):
+            raise ValueError("signal_schedule must be a dict {agent: tick}")
+        out = {}
+        for agent, tick in schedule.items():
+            if agent not in self.agent_index:
+                raise ValueError(f"signal_schedule names unknown agent {agent!r}; agents are {self.possible_agents}")
+            if isinstance(tick, bool) or not isinstance(tick, (int, np.integer)) or tick < 1:
+                raise ValueError(f"signal_schedule tick for {agent!r} must be a positive integer, got {tick!r}")
+            out[agent] = int(tick)
+        return out
+
+    @staticmethod
+    def _check_placement(placement: Any) -> Placement:
+        if placement == "prompt":
+            return prompt_placement
+        if placement in ("none", None):
+            return _no_placement
+        if callable(placement):
+            return placement
+        raise ValueError(f"placement must be 'prompt', 'none' or a function {{agent: pose}} -> None, "
+                         f"got {placement!r}")
+
+    def _install_sigterm(self) -> None:
+        """Turn SIGTERM into SystemExit so the stop commands run (only from the main thread, only if nobody
+        else handles SIGTERM)."""
+        if threading.current_thread() is not threading.main_thread():
+            return
+        try:
+            if _signal.getsignal(_signal.SIGTERM) is _signal.SIG_DFL:
+                _signal.signal(_signal.SIGTERM, _sigterm_to_exit)
+                self._prev_sigterm = _signal.SIG_DFL
+        except (ValueError, OSError, AttributeError):  # pragma: no cover - platforms without SIGTERM
+            pass
+
+    def _connect(self, opener: Callable, baudrate: int, eol: str, speed_unit: Any) -> None:
+        n = len(self.ports)
+        if isinstance(speed_unit, str):
+            if speed_unit != "auto":
+                raise ValueError(f"speed_unit must be 'auto', a number or one number per robot, got {speed_unit!r}")
+            units: list[Optional[float]] = [None] * n
+        elif isinstance(speed_unit, (int, float)) and not isinstance(speed_unit, bool):
+            units = [float(speed_unit)] * n
+        else:
+            units = [float(u) for u in speed_unit]
+            if len(units) != n:
+                raise ValueError(f"speed_unit lists {len(units)} values for {n} robots")
+        for u in units:
+            if u is not None and not (u > 0 and np.isfinite(u)):
+                raise ValueError(f"speed_unit must be positive, got {u!r}")
+        for agent, url in zip(self.possible_agents, self.ports):
+            link = RobotLink(url, agent, self.retry, baudrate=baudrate, eol=eol, opener=opener)
+            self._links.append(link)
+            link.open()
+        for k, link in enumerate(self._links):
+            agent = self.possible_agents[k]
+            try:
+                ver = link.transact(P.version())
+                self.firmware[agent] = (ver.version, ver.revision)
+            except ProtocolError as exc:
+                if exc.reply != P.ERROR_MARK or units[k] is not None:
+                    raise
+                warnings.warn(f"{agent}: firmware does not answer B; assuming speed unit {SPEED_UNIT_V3} "
+                              "units per mm/s (pass speed_unit= to set it)", stacklevel=3)
+                self.firmware[agent] = None
+            if units[k] is None:
+                fw = self.firmware[agent]
+                units[k] = SPEED_UNIT_V3 if fw is None else speed_unit_for_version(*fw)
+            link.transact(P.init_motors())
+        self.speed_units = [float(u) for u in units]  # type: ignore[arg-type]
+        self._broadcast([P.STOP] * n)
+
+    # ------------------------------------------------------------------ spaces
+    def observation_space(self, agent: str) -> spaces.Box:
+        return self.observation_spaces[agent]
+
+    def action_space(self, agent: str) -> spaces.Discrete:
+        return self.action_spaces[agent]
+
+    @property
+    def max_cycles(self) -> int:
+        return self.params.max_cycles
+
+    @max_cycles.setter
+    def max_cycles(self, value: int) -> None:
+        from dataclasses import replace
+
+        self.params = replace(self.params, max_cycles=value)
+        self._pvec = self.params.vector(self.model)
+
+    @property
+    def tick(self) -> int:
+        return self._tick
+
+    # ------------------------------------------------------------------ I/O
+    def _broadcast(self, commands: Sequence[P.Command]) -> list[P.Reply]:
+        """Send one command to every robot, then collect the replies (one round trip for the team)."""
+        for link, cmd in zip(self._links, commands):
+            link.send(cmd)
+        return [link.finish() for link in self._links]
+
+    def _read_sensors(self) -> None:
+        replies = self._broadcast([P.read_proximity()] * len(self._links))
+        for k, rep in enumerate(replies):
+            self._raw[k] = rep.values
+        front = self._raw[:, list(P.FRONT_SENSORS)]
+        q = np.asarray(self.calibration.to_unit(front), dtype=np.float64)
+        if q.shape != front.shape or not np.all(np.isfinite(q)):
+            raise ValueError(f"calibration {getattr(self.calibration, 'name', self.calibration)!r} returned "
+                             f"{q!r} for raw {front.tolist()}: expected finite values of shape {front.shape}")
+        self._q[:] = q
+
+    def _read_poses(self) -> None:
+        if self.pose_source is None:
+            return
+        raw = self.pose_source()
+        if isinstance(raw, Mapping):
+            arr = np.array([raw[a] for a in self.possible_agents], dtype=np.float64)
+        else:
+            arr = np.asarray(raw, dtype=np.float64)
+        n = len(self.possible_agents)
+        if arr.shape != (n, 3):
+            raise ValueError(f"pose_source must return {n} poses (x, y, heading), got shape {arr.shape}")
+        self._pose[0, :, :3] = arr
+
+    def _observations(self) -> dict[str, np.ndarray]:
+        obs = np.zeros((len(self.possible_agents), 7), dtype=np.float32)
+        obs[:, :6] = self._q
+        obs[:, :6][obs[:, :6] <= np.float32(self.sensor_floor)] = 0.0
+        obs[:, 6] = self._rflag[0, :, T.F_SIGNAL]
+        return {a: obs[k] for k, a in enumerate(self.agents)}
+
+    def _info(self, k: int, extra: Optional[dict] = None) -> dict[str, Any]:
+        p = self._pose[0, k]
+        info = {"pose": None if not np.all(np.isfinite(p[:3])) else (float(p[0]), float(p[1]), float(p[2])),
+                "signal": bool(self._rflag[0, k, T.F_SIGNAL]), "tick": self._tick,
+                "period": self._period_measured, "raw_ir": tuple(int(v) for v in self._raw[k, list(P.FRONT_SENSORS)])}
+        if extra:
+            info.update(extra)
+        return info
+
+    # ------------------------------------------------------------------ episode
+    def reset(self, seed: Optional[int] = None, options: Optional[dict] = None):
+        """Stop the robots, let the operator place them, read the sensors.  `seed` only seeds the spaces
+        (hardware has no randomness to seed); ``options['poses']`` = {agent: (x, y, heading)} targets."""
+        self._check_open()
+        try:
+            return self._reset(seed, options)
+        except BaseException as exc:
+            self._emergency_stop(exc)
+            raise
+
+    def _reset(self, seed: Optional[int], options: Optional[dict]):
+        if seed is not None:
+            if seed < 0:
+                raise ValueError(f"seed must be a non-negative integer, got {seed}")
+            for i, a in enumerate(self.possible_agents):
+                self.action_spaces[a].seed(seed + 1 + i)
+                self.observation_spaces[a].seed(seed + 101 + i)
+        options = dict(options or {})
+        poses = options.pop("poses", None)
+        if options:
+            raise ValueError(f"unknown reset option(s) {sorted(options)}; known: ['poses']")
+        targets: dict[str, Optional[tuple]] = {}
+        for k, a in enumerate(self.possible_agents):
+            targets[a] = tuple(float(v) for v in self.world.starts[k]) if k < self.world.n_robots else None
+        if poses is not None:
+            if not isinstance(poses, Mapping):
+                raise ValueError("options['poses'] must be a dict {agent: (x, y, heading)}")
+            for agent, pose in poses.items():
+                if agent not in self.agent_index:
+                    raise ValueError(f"options['poses'] names unknown agent {agent!r}; agents are "
+                                     f"{self.possible_agents}")
+                p = np.asarray(pose, dtype=np.float64)
+                if p.shape != (3,) or not np.all(np.isfinite(p)):
+                    raise ValueError(f"pose for {agent!r} must be finite (x, y, heading), got {pose!r}")
+                targets[agent] = tuple(float(v) for v in p)
+        self.agents = []
+        self._broadcast([P.STOP] * len(self._links))
+        self._placement(dict(targets))
+        self._tick = 0
+        self._moving[:] = False
+        self._racc[:] = 0.0
+        self._rflag[:] = 0
+        self._goto[:] = 0.0
+        self._est[:] = 0
+        self._fitness = 0.0
+        self._solved = False
+        self._pose[:] = np.nan
+        self._pose[0, :, 3] = 0.0
+        self.overruns = 0
+        self._period_measured = 0.0
+        self._read_sensors()
+        self._t_read = self.clock.now()
+        self._deadline = self._t_read + self.period
+        self._read_poses()
+        self.agents = list(self.possible_agents)
+        observations = self._observations()
+        infos = {a: self._info(k) for k, a in enumerate(self.agents)}
+        if self.render_mode == "human":
+            self.render()
+        return observations, infos
+
+    def step(self, actions: dict):
+        self._check_open()
+        if not self.agents:
+            raise RuntimeError("step() called on a finished episode; call reset() first")
+        try:
+            return self._step(actions)
+        except BaseException as exc:
+            self._emergency_stop(exc)
+            raise
+
+    def _step(self, actions: dict):
+        if not isinstance(actions, dict):
+            raise ValueError(f"actions must be a dict {{agent: action}}, got {type(actions).__name__}")
+        for agent in actions:
+            if agent not in self.agent_index:
+                raise ValueError(f"action given for unknown agent {agent!r}; agents are {self.possible_agents}")
+        missing = [a for a in self.agents if a not in actions]
+        if missing:
+            raise ValueError(f"no action for agent(s) {missing}: every live agent must act each step")
+        acts = [coerce_action(a, actions[a]) for a in self.agents]
+        # 1. actions -> reflex -> wheel commands, to every robot
+        motions, commands = [], []
+        for k, a in enumerate(acts):
+            m = reflex_motion(a, self._q[k], bool(self._moving[k]), self.sensor_floor, self.reflex)
+            self._moving[k] = m.moving
+            motions.append(m)
+            commands.append(P.set_speed(*self.drive.units(m, self.speed_units[k])))
+        t_cmd = time.monotonic()
+        self._broadcast(commands)
+        command_latency = time.monotonic() - t_cmd
+        # 2. pace: the next reading is one period after the last one
+        self.clock.sleep_until(self._deadline)
+        now = self.clock.now()
+        self._period_measured = now - self._t_read
+        overrun = self._period_measured > 1.5 * self.period
+        if overrun:
+            self.overruns += 1
+        self._deadline = (now + self.period) if now - self._deadline > self.period else self._deadline + self.period
+        self._t_read = now
+        # 3. sense, signal, score
+        self._read_sensors()
+        self._read_poses()
+        self._tick += 1
+        self._est[0, T.E_TICK] = self._tick
+        self._after_motion(self._tick)
+        done = self._tick >= self.params.max_cycles
+        observations = self._observations()
+        if self.pose_source is not None:
+            fit, solved = T.team_fitness(0, self._pose, self._racc, self._rflag, self._goto, self._est,
+                                         self._home)
+            reward = float(fit - self._fitness)
+            self._fitness, self._solved = float(fit), bool(solved)
+        else:
+            reward = 0.0
+        rewards = {a: reward for a in self.agents}
+        terminations = {a: False for a in self.agents}
+        truncations = {a: done for a in self.agents}
+        infos = {a: self._info(k, {"motion": motions[k].name.lower(), "command": commands[k].text,
+                                   "overrun": overrun, "command_latency": command_latency})
+                 for k, a in enumerate(self.agents)}
+        if done:
+            for a in self.agents:
+                infos[a]["team_fitness"] = self._fitness if self.pose_source is not None else None
+                infos[a]["solved"] = self._solved if self.pose_source is not None else None
+            self.agents = []
+            self._broadcast([P.STOP] * len(self._links))  # the episode is over: nothing keeps driving
+        if self.render_mode == "human":
+            self.render()
+        return observations, rewards, terminations, truncations, infos
+
+    @property
+    def _home(self) -> np.ndarray:
+        return np.ascontiguousarray(self.world.home)
+
+    def _after_motion(self, tick: int) -> None:
+        """Fitness sample and the automatic signal (the simulator's code), then scheduled signals."""
+        if self.pose_source is not None:
+            T.score_tick(0, tick, self._pose, self._racc, self._rflag, self._goto, self._est,
+                         np.ascontiguousarray(self.world.pois), self._home, self._pvec)
+        elif (self.params.auto_signal and tick == self.params.signal_tick
+              and self._est[0, T.E_SWITCHED] == 0):
+            self._rflag[0, :, T.F_SIGNAL] = 1
+            self._est[0, T.E_SWITCHED] = 1
+        for agent, t in self.signal_schedule.items():
+            if t == tick:
+                self._rflag[0, self.agent_index[agent], T.F_SIGNAL] = 1
+
+    # ------------------------------------------------------------------ operator signal
+    def call_home(self, agent: str) -> None:
+        """Give one robot the come-home signal now (it shows in the next observation)."""
+        self._rflag[0, self._index(agent), T.F_SIGNAL] = 1
+
+    def clear_signal(self, agent: str) -> None:
+        self._rflag[0, self._index(agent), T.F_SIGNAL] = 0
+
+    def _index(self, agent: str) -> int:
+        try:
+            return self.agent_index[agent]
+        except KeyError:
+            raise ValueError(f"unknown agent {agent!r}; agents are {self.possible_agents}") from None
+
+    # ------------------------------------------------------------------ safety
+    def stop_all(self, last: Optional[str] = None) -> dict[str, Optional[str]]:
+        """Send every robot a stop, each on its own (one dead link does not keep the others driving); the
+        robot named `last` (the one that just failed) is tried after the others.
+        Returns {agent: None if stopped, else the error text}; never raises."""
+        report: dict[str, Optional[str]] = {}
+        for link in sorted(self._links, key=lambda lk: lk.name == last):
+            try:
+                link.cancel()
+                if not link.is_open:
+                    link.open()
+                link.transact(P.STOP, self._stop_policy)
+                report[link.name] = None
+            except Exception as exc:  # noqa: BLE001 - report every failure, keep stopping the others
+                report[link.name] = f"{type(exc).__name__}: {exc}"
+        self.last_stop_report = report
+        return report
+
+    def _emergency_stop(self, exc: BaseException) -> None:
+        self.agents = []
+        report = self.stop_all(last=getattr(exc, "robot", None))
+        bad = {a: e for a, e in report.items() if e is not None}
+        if bad and not isinstance(exc, KeyboardInterrupt):
+            warnings.warn(f"emergency stop after {type(exc).__name__}: could not stop {bad}", stacklevel=3)
+
+    def _check_open(self) -> None:
+        if self._closed:
+            raise RuntimeError("the hardware env is closed")
+
+    def close(self) -> None:
+        """Stop every robot and close the links.  Safe to call more than once."""
+        if self._closed:
+            return
+        self._closed = True
+        self.agents = []
+        try:
+            if self._links:
+                self.stop_all()
+        finally:
+            for link in self._links:
+                link.close()
+            atexit.unregister(self._atexit_hook)
+            if self._prev_sigterm is not None:
+                try:
+                    if _signal.getsignal(_signal.SIGTERM) is _sigterm_to_exit:
+                        _signal.signal(_signal.SIGTERM, self._prev_sigterm)
+                except (ValueError, OSError):  # pragma: no cover - not in the main thread
+                    pass
+            if self._renderer is not None:
+                self._renderer.close()
+                self._renderer = None
+
+    def _at_exit(self) -> None:
+        try:
+            self.close()
+        except Exception:  # noqa: BLE001 - at exit, stopping is all that matters
+            pass
+
+    def __enter__(self) -> "KheperaHardwareEnv":
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        self.close()
+
+    # ------------------------------------------------------------------ state, rendering
+    def state(self) -> np.ndarray:
+        """(x, y, heading, signal) of every robot, robot-major; NaN poses without a pose_source."""
+        s = np.concatenate([self._pose[0, :, :3], self._rflag[0, :, T.F_SIGNAL:T.F_SIGNAL + 1]], axis=1)
+        return s.astype(np.float32).reshape(-1)
+
+    def render(self):
+        if self.render_mode is None:
+            import gymnasium
+
+            gymnasium.logger.warn("render() called without a render_mode; pass render_mode='rgb_array' or 'human'")
+            return None
+        if self._renderer is None:
+            from ..patrol_return.rendering import Renderer
+
+            self._renderer = Renderer(self.world, self.render_mode, fps=self.metadata["render_fps"])
+        rays = np.minimum(self.model.radius + self._q * self.model.ir_range, self.model.sensor_range)
+        self._renderer.draw(self._pose[0, :, :3], rays, self._rflag[0, :, T.F_SIGNAL].astype(bool),
+                            np.asarray(self.model.sensor_angles), self.model.radius, self._tick, self._fitness)
+        if self.render_mode == "rgb_array":
+            return self._renderer.rgb()
+        self._renderer.show()
+        return None
+
+
+__all__ = ["KheperaHardwareEnv", "prompt_placement", "HardwareError"]
