@@ -35,7 +35,10 @@ class Renderer:
         self.scale = size_px / span
         self.w = int(round((xmax - xmin + 2 * margin) * self.scale))
         self.h = int(round((ymax - ymin + 2 * margin) * self.scale))
-        pygame.init()
+        if mode == "human":
+            pygame.init()
+        else:  # off-screen drawing needs no display (works headless without SDL_VIDEODRIVER tricks)
+            pygame.font.init()
         self.window: Optional["pygame.Surface"] = None
         self.clock = None
         if mode == "human":

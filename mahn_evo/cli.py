@@ -1,0 +1,170 @@
+"""`mahn-evo`: train, evaluate and deploy multiagent HyperNEAT teams.  A thin layer over the Python API."""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+from typing import Optional, Sequence
+
+from .config import INITS, TrainConfig, load_config_file
+from .substrate import MODES
+
+
+def _train_parser(sub) -> None:
+    p = sub.add_parser("train", help="evolve a team (writes config, log, checkpoint, champion, summary, plot)")
+    p.add_argument("--mode", choices=MODES, help="policy geometry (default situational)")
+    p.add_argument("--generations", type=int, help="generations to run (default 1000, as the paper)")
+    p.add_argument("--pop", type=int, help="population size (default 500, as the paper)")
+    p.add_argument("--seed", type=int, help="the run's only seed (default 0)")
+    p.add_argument("--init", choices=INITS, help="initial population (default iros2011: the original seed genome)")
+    p.add_argument("--map", help="training map (default plus)")
+    p.add_argument("--episodes", type=int, help="episodes per evaluation (default 1; >1 only with noise)")
+    p.add_argument("--evaluate-modules", action="store_true", default=None,
+                   help="evaluate the seed's Multiply modules (the 'intended behaviour' ablation)")
+    p.add_argument("--stop-when-solved", action="store_true", default=None, help="stop at the first solution")
+    p.add_argument("--config", type=Path, help="TOML or JSON file with TrainConfig fields (flags override it)")
+    p.add_argument("--out", type=Path, default=Path("runs/latest"), help="run folder (default runs/latest)")
+    p.add_argument("--resume", action="store_true", help="continue the run in --out from its checkpoint")
+    p.add_argument("--gif", action="store_true", help="also render the champion's episode to champion.gif")
+    p.add_argument("--quiet", action="store_true", help="no progress display")
+
+
+def _eval_parser(sub) -> None:
+    p = sub.add_parser("eval", help="score a saved champion on any map and engine")
+    p.add_argument("champion", type=Path)
+    p.add_argument("--map", default="plus")
+    p.add_argument("--engine", default="kinematic", choices=["kinematic", "pymunk"])
+    p.add_argument("--episodes", type=int, default=1)
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--noise", default="none", help="noise preset: none or generalization")
+    for name in ("sensor-noise", "effector-noise", "heading-noise", "start-jitter-xy", "start-jitter-heading"):
+        p.add_argument(f"--{name}", type=float, help="override one noise level (see TaskParams)")
+    p.add_argument("--video", type=Path, help="write a GIF of the (first) episode")
+    p.add_argument("--plot", type=Path, help="write a PNG of the trajectories of the (first) episode")
+    p.add_argument("--json", action="store_true", help="print the result as JSON")
+
+
+def _progress_printer(quiet: bool, total: int):
+    if quiet:
+        return None, None
+    if sys.stdout.isatty():
+        from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+        prog = Progress(TextColumn("[bold]gen"), MofNCompleteColumn(), BarColumn(), TextColumn("{task.description}"),
+                        TimeElapsedColumn())
+        task = prog.add_task("", total=total)
+
+        def on_gen(p):
+            prog.update(task, completed=p.generation + 1, description=(
+                f"best {p.best_fitness:8.3f}  mean {p.mean_fitness:7.3f}  species {p.n_species:3d}  "
+                f"solved {'yes' if p.first_solved is not None else 'no '}  {p.seconds:.2f} s/gen"))
+        return prog, on_gen
+
+    def on_gen(p):
+        if p.generation % 10 == 0 or p.generation + 1 == p.generations or p.solved:
+            print(f"gen {p.generation:5d}  best {p.best_fitness:9.4f}  mean {p.mean_fitness:8.4f}  "
+                  f"species {p.n_species:3d}  solved {'yes' if p.first_solved is not None else 'no'}  "
+                  f"{p.seconds:.2f} s/gen", flush=True)
+    return None, on_gen
+
+
+def cmd_train(args) -> int:
+    from .trainer import Trainer
+
+    base = load_config_file(args.config) if args.config else TrainConfig()
+    overrides = dict(mode=args.mode, generations=args.generations, pop=args.pop, seed=args.seed, init=args.init,
+                     map=args.map, episodes=args.episodes, evaluate_modules=args.evaluate_modules,
+                     stop_when_solved=args.stop_when_solved)
+    if args.resume and (args.out / "config.json").exists() and not args.config:
+        from .files import read_versioned_json
+
+        saved = read_versioned_json(args.out / "config.json", "config")
+        saved = {k: v for k, v in saved.items() if k not in ("kind", "version")}
+        base = TrainConfig.from_mapping(saved)
+    config = base.with_overrides(**overrides)
+    trainer = Trainer(config, args.out, resume=args.resume)
+    prog, on_gen = _progress_printer(args.quiet, config.generations)
+    try:
+        if prog is not None:
+            with prog:
+                summary = trainer.run(on_gen)
+        else:
+            summary = trainer.run(on_gen)
+    except KeyboardInterrupt:
+        trainer.finish()
+        print(f"\ninterrupted after generation {trainer.generation}; continue with: "
+              f"mahn-evo train --out {args.out} --resume", file=sys.stderr)
+        return 130
+    if args.gif and (args.out / "champion.json").exists():
+        from .evaluate import evaluate_champion
+
+        evaluate_champion(args.out / "champion.json", map=config.map, video=args.out / "champion.gif")
+        _trajectory_png(args.out / "champion.json", config.map, args.out / "champion.png")
+    print(json.dumps(summary, indent=1))
+    return 0
+
+
+def _trajectory_png(champion_path: Path, map_name: str, out_png: Path) -> dict:
+    from mahn_envs.core import BatchSim
+
+    from .champion import Champion
+    from .plots import trajectory_plot
+
+    champ = Champion.load(champion_path)
+    sim = BatchSim(map_name, 1)
+    res = sim.run_controllers(champ.controllers, record=True)
+    trajectory_plot(sim.world, res.trajectories[0], out_png,
+                    title=f"{champ.mode} champion (gen {champ.generation}): fitness {res.fitness[0]:.2f}, "
+                          f"solved {bool(res.solved[0])}", signal_tick=sim.params.signal_tick)
+    return {"fitness": float(res.fitness[0])}
+
+
+def cmd_eval(args) -> int:
+    from .evaluate import evaluate_champion, task_params
+
+    params = task_params(args.noise, sensor_noise=args.sensor_noise, effector_noise=args.effector_noise,
+                         heading_noise=args.heading_noise, start_jitter_xy=args.start_jitter_xy,
+                         start_jitter_heading=args.start_jitter_heading)
+    result = evaluate_champion(args.champion, map=args.map, engine=args.engine, episodes=args.episodes,
+                               params=params, seed=args.seed, video=args.video)
+    if args.plot:
+        _trajectory_png(args.champion, args.map, args.plot)
+    if args.json:
+        print(json.dumps(result, indent=1))
+    else:
+        print(f"fitness {result['fitness']:.6f}  solved {result['solved']}  "
+              f"({result['episodes']} episode(s), map {args.map}, engine {args.engine})")
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="mahn-evo", description=__doc__)
+    sub = parser.add_subparsers(dest="command", required=True)
+    _train_parser(sub)
+    _eval_parser(sub)
+    try:
+        from .deploy import add_deploy_parser
+    except ImportError:
+        pass
+    else:
+        add_deploy_parser(sub)
+    return parser
+
+
+def main(argv: Optional[Sequence[str]] = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        if args.command == "train":
+            return cmd_train(args)
+        if args.command == "eval":
+            return cmd_eval(args)
+        return int(args.func(args) or 0)
+    except ValueError as exc:
+        print(f"mahn-evo: error: {exc}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,97 @@
+"""A training run's configuration: one validated record, from defaults, a TOML/JSON file and CLI flags.
+
+Written to the run folder as `config.json`, so every result says exactly how it was made, and `--resume`
+checks the folder's configuration against the one asked for.
+"""
+from __future__ import annotations
+
+import json
+import tomllib
+from dataclasses import asdict, dataclass, field, fields, replace
+from pathlib import Path
+from typing import Any, Mapping, Optional
+
+from mahn_envs.core import TaskParams
+
+from .neat.settings import NeatSettings
+from .substrate import MODES
+
+INITS = ("iros2011", "minimal")
+
+
+@dataclass(frozen=True)
+class TrainConfig:
+    """Everything that determines a run.  Same config (seed included) -> bit-identical run."""
+
+    mode: str = "situational"
+    generations: int = 1000
+    seed: int = 0
+    init: str = "iros2011"
+    map: str = "plus"
+    evaluate_modules: bool = False
+    episodes: int = 1
+    stop_when_solved: bool = False
+    checkpoint_every: int = 1
+    neat: NeatSettings = field(default_factory=NeatSettings)
+    task: TaskParams = field(default_factory=TaskParams)
+
+    def __post_init__(self) -> None:
+        if self.mode not in MODES:
+            raise ValueError(f"mode must be one of {MODES}, got {self.mode!r}")
+        if self.init not in INITS:
+            raise ValueError(f"init must be one of {INITS}, got {self.init!r}")
+        for name in ("generations", "episodes", "checkpoint_every"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, int) or v < 1:
+                raise ValueError(f"{name} must be a positive integer, got {v!r}")
+        if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
+            raise ValueError(f"seed must be a non-negative integer, got {self.seed!r}")
+
+    @property
+    def n_cppn_inputs(self) -> int:
+        return 6 if self.mode == "situational" else 5
+
+    def to_dict(self) -> dict[str, Any]:
+        d = {f.name: getattr(self, f.name) for f in fields(self) if f.name not in ("neat", "task")}
+        d["neat"] = self.neat.to_dict()
+        d["task"] = self.task.to_dict()
+        return d
+
+    @classmethod
+    def from_mapping(cls, data: Mapping[str, Any]) -> "TrainConfig":
+        names = {f.name for f in fields(cls)}
+        unknown = set(data) - names
+        if unknown:
+            raise ValueError(f"unknown configuration key(s) {sorted(unknown)}; known: {sorted(names)}")
+        kw = dict(data)
+        if "neat" in kw:
+            kw["neat"] = NeatSettings.from_mapping(kw["neat"])
+        if "task" in kw:
+            kw["task"] = TaskParams.from_mapping(kw["task"])
+        return cls(**kw)
+
+    def with_overrides(self, **changes: Any) -> "TrainConfig":
+        """Apply CLI-style overrides; `pop` is a shortcut for neat.population_size."""
+        changes = {k: v for k, v in changes.items() if v is not None}
+        neat = self.neat
+        if "pop" in changes:
+            pop = changes.pop("pop")
+            neat = neat.replace(population_size=pop, species_count_min=None, species_count_max=None) \
+                if _has_species_fields(neat) else neat.replace(population_size=pop)
+        return replace(self, neat=neat, **changes)
+
+
+def _has_species_fields(neat: NeatSettings) -> bool:
+    return {"species_count_min", "species_count_max"} <= {f.name for f in fields(neat)}
+
+
+def load_config_file(path: "str | Path") -> TrainConfig:
+    p = Path(path)
+    if not p.exists():
+        raise ValueError(f"config file {str(p)!r} does not exist")
+    text = p.read_text()
+    try:
+        data = tomllib.loads(text) if p.suffix == ".toml" else json.loads(text)
+    except (tomllib.TOMLDecodeError, json.JSONDecodeError) as exc:
+        raise ValueError(f"config file {str(p)!r} is not valid {p.suffix[1:].upper() or 'JSON'}: {exc}") from exc
+    return TrainConfig.from_mapping(data)

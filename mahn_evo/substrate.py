@@ -1,0 +1,157 @@
+"""Substrate geometry and CPPN -> team-controller decoding (multiagent HyperNEAT, section 6 of the sheet).
+
+Every robot's brain is the same 6(+1)-9-3 substrate painted by one CPPN at the robot's policy-geometry
+coordinate z (and, for situational policy geometry, at S = -1 for the patrol brain and S = +1 for the return
+brain).  All queries of a whole population are decoded together: the CPPN outputs of every genome are
+stacked and thresholded, scaled and normalised with array operations, so decoding costs a few numpy passes
+per generation rather than a Python loop per connection.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import lru_cache
+from typing import Sequence
+
+import numpy as np
+
+from mahn_envs.controllers import N_INPUTS, TeamControllers
+
+MODES = ("situational", "standard")
+THRESHOLD = 0.2
+WEIGHT_RANGE = 3.0
+NORMALISED_SUM = 3.0  # a literal in the original, not WEIGHT_RANGE
+
+
+def _float32_steps(start: float, step: float, n: int) -> np.ndarray:
+    """Positions built by float32 accumulation, as the original laid out its node rows."""
+    out = np.empty(n, dtype=np.float32)
+    x = np.float32(start)
+    for i in range(n):
+        out[i] = x
+        x = np.float32(x + np.float32(step))
+    return out
+
+
+INPUT_X = _float32_steps(-1.0, 2.0 / 5.0, 6)  # -1, -0.6000000238, ... 1.0
+HIDDEN_X = np.linspace(-1.0, 1.0, 9).astype(np.float32)
+OUTPUT_X = np.array([-1.0, 0.0, 1.0], dtype=np.float32)  # left, forward, right
+SIGNAL_POS = (np.float32(0.0), np.float32(-0.8))
+
+
+def agent_coordinates(n_robots: int) -> np.ndarray:
+    """z_k = -1 + k * 2/(n-1), accumulated in float32 (gives exactly -1, 0, 1 for three robots)."""
+    if n_robots == 1:
+        return np.zeros(1, dtype=np.float32)
+    return _float32_steps(-1.0, 2.0 / (n_robots - 1), n_robots)
+
+
+@dataclass(frozen=True)
+class QueryLayout:
+    """Where each substrate connection and bias lives in the CPPN query matrix of one genome."""
+
+    mode: str
+    n_robots: int
+    n_brains: int
+    queries: np.ndarray  # (Q, n_cppn_inputs) float32
+    # index arrays into the query rows, shaped like the controller arrays (R, K, ...)
+    q_ih: np.ndarray  # (R, K, 9, 7): -1 where no connection exists (the signal column in situational mode)
+    q_hh: np.ndarray  # (R, K, 9, 9)
+    q_ho: np.ndarray  # (R, K, 3, 9)
+    q_bh: np.ndarray  # (R, K, 9)
+    q_bo: np.ndarray  # (R, K, 3)
+
+    @property
+    def n_cppn_inputs(self) -> int:
+        return self.queries.shape[1]
+
+
+@lru_cache(maxsize=8)
+def query_layout(mode: str, n_robots: int = 3) -> QueryLayout:
+    if mode not in MODES:
+        raise ValueError(f"mode must be one of {MODES}, got {mode!r}")
+    situational = mode == "situational"
+    n_brains = 2 if situational else 1
+    zs = agent_coordinates(n_robots)
+    rows: list[tuple] = []
+    R, K, H = n_robots, n_brains, len(HIDDEN_X)
+    q_ih = -np.ones((R, K, H, N_INPUTS), dtype=np.int64)
+    q_hh = np.zeros((R, K, H, H), dtype=np.int64)
+    q_ho = np.zeros((R, K, 3, H), dtype=np.int64)
+    q_bh = np.zeros((R, K, H), dtype=np.int64)
+    q_bo = np.zeros((R, K, 3), dtype=np.int64)
+
+    def add(x1, y1, x2, y2, z, s) -> int:
+        rows.append((x1, y1, x2, y2, z, s) if situational else (x1, y1, x2, y2, z))
+        return len(rows) - 1
+
+    for r in range(R):
+        z = zs[r]
+        for k in range(K):
+            s = np.float32(-1.0 if k == 0 else 1.0)
+            for i, xh in enumerate(HIDDEN_X):
+                q_bh[r, k, i] = add(0.0, 0.0, xh, 0.0, z, s)
+            for o, xo in enumerate(OUTPUT_X):
+                q_bo[r, k, o] = add(0.0, 0.0, xo, 1.0, z, s)
+            for j, xi in enumerate(INPUT_X):
+                for i, xh in enumerate(HIDDEN_X):
+                    q_ih[r, k, i, j] = add(xi, -1.0, xh, 0.0, z, s)
+            if not situational:
+                for i, xh in enumerate(HIDDEN_X):
+                    q_ih[r, k, i, 6] = add(SIGNAL_POS[0], SIGNAL_POS[1], xh, 0.0, z, s)
+            for m, xs in enumerate(HIDDEN_X):
+                for i, xh in enumerate(HIDDEN_X):
+                    q_hh[r, k, i, m] = add(xs, 0.0, xh, 0.0, z, s)
+            for m, xs in enumerate(HIDDEN_X):
+                for o, xo in enumerate(OUTPUT_X):
+                    q_ho[r, k, o, m] = add(xs, 0.0, xo, 1.0, z, s)
+    queries = np.array(rows, dtype=np.float32)
+    for a in (queries, q_ih, q_hh, q_ho, q_bh, q_bo):
+        a.setflags(write=False)
+    return QueryLayout(mode, n_robots, n_brains, queries, q_ih, q_hh, q_ho, q_bh, q_bo)
+
+
+def _weights_from_outputs(o: np.ndarray) -> np.ndarray:
+    """Threshold and scale CPPN weight outputs: |o| <= 0.2 -> no connection, else sign * 3 * (|o|-0.2)/0.8."""
+    o64 = o.astype(np.float64)
+    mag = np.abs(o64)
+    return np.where(mag > THRESHOLD, np.sign(o64) * WEIGHT_RANGE * (mag - THRESHOLD) / (1.0 - THRESHOLD), 0.0)
+
+
+def _normalise(columns: list[np.ndarray]) -> list[np.ndarray]:
+    """Per target node: positive incoming weights sum to +3, negative to -3 (sums in connection order)."""
+    pos = np.zeros(columns[0].shape[:-1])
+    neg = np.zeros(columns[0].shape[:-1])
+    for block in columns:
+        for c in range(block.shape[-1]):
+            w = block[..., c]
+            pos = pos + np.where(w > 0, w, 0.0)
+            neg = neg + np.where(w < 0, -w, 0.0)
+    pos_scale = np.where(pos > 0, NORMALISED_SUM / np.where(pos > 0, pos, 1.0), 1.0)[..., None]
+    neg_scale = np.where(neg > 0, NORMALISED_SUM / np.where(neg > 0, neg, 1.0), 1.0)[..., None]
+    return [np.where(b > 0, b * pos_scale, np.where(b < 0, b * neg_scale, 0.0)) for b in columns]
+
+
+def decode_outputs(outputs: np.ndarray, layout: QueryLayout, normalise: bool = True) -> TeamControllers:
+    """CPPN outputs (N, Q, 2) of N genomes -> a batch of N team controllers (arrays (N, R, K, ...))."""
+    if outputs.ndim != 3 or outputs.shape[1:] != (layout.queries.shape[0], 2):
+        raise ValueError(f"outputs must have shape (N, {layout.queries.shape[0]}, 2), got {outputs.shape}")
+    w_out = outputs[..., 0]
+    b_out = outputs[..., 1].astype(np.float64)
+    w_ih = _weights_from_outputs(w_out[:, np.maximum(layout.q_ih, 0)])
+    w_ih = np.where(layout.q_ih >= 0, w_ih, 0.0)
+    w_hh = _weights_from_outputs(w_out[:, layout.q_hh])
+    w_ho = _weights_from_outputs(w_out[:, layout.q_ho])
+    if normalise:
+        w_ih, w_hh = _normalise([w_ih, w_hh])
+        (w_ho,) = _normalise([w_ho])
+    b_h = WEIGHT_RANGE * b_out[:, layout.q_bh]
+    b_o = WEIGHT_RANGE * b_out[:, layout.q_bo]
+    return TeamControllers(w_ih.astype(np.float32), w_hh.astype(np.float32), w_ho.astype(np.float32),
+                           b_h.astype(np.float32), b_o.astype(np.float32))
+
+
+def decode_population(plans: Sequence, mode: str, n_robots: int = 3, normalise: bool = True) -> TeamControllers:
+    """Compiled CPPN plans (one per genome) -> a batch of team controllers, one team per genome."""
+    layout = query_layout(mode, n_robots)
+    outputs = np.stack([p.evaluate(layout.queries) for p in plans])
+    return decode_outputs(outputs, layout, normalise)

@@ -1,0 +1,184 @@
+"""The training loop: NEAT (ask/tell) -> CPPN decoding -> batch evaluation, with files a researcher keeps.
+
+Run folder:
+  config.json      the resolved TrainConfig
+  log.csv          one row per generation (fitness, species, solved, evaluations, seconds)
+  checkpoint.json  full NEAT state + trainer state after the last finished generation (atomic); --resume
+                   continues from it bit-identically
+  champion.json    best team so far (CPPN + decoded controllers)
+  archive/         every solved champion that improved on the last archived one (the generalisation test
+                   picks among all solutions a run found)
+  summary.json     mode, seed, generations, best_fitness, solved, first_solved_generation, wall time
+  fitness.png      the fitness curve
+"""
+from __future__ import annotations
+
+import csv
+import json
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable, Optional
+
+import numpy as np
+
+from .champion import Champion
+from .config import TrainConfig
+from .evaluator import TeamEvaluator
+from .files import atomic_write_csv, atomic_write_json, read_versioned_json, versioned
+from .neat.genome import Genome
+from .neat.population import Population
+
+LOG_HEADER = ["generation", "evaluations", "best_fitness", "mean_fitness", "best_ever", "solved", "n_solved",
+              "n_species", "threshold", "mean_complexity", "seconds"]
+
+
+@dataclass
+class Progress:
+    generation: int
+    generations: int
+    best_fitness: float
+    mean_fitness: float
+    best_ever: float
+    n_species: int
+    solved: bool
+    first_solved: Optional[int]
+    seconds: float
+
+
+class Trainer:
+    """One evolutionary run in a folder.  Create it fresh or with resume=True to continue a checkpoint."""
+
+    def __init__(self, config: TrainConfig, out_dir: "str | Path", resume: bool = False) -> None:
+        self.config = config
+        self.out = Path(out_dir)
+        self.evaluator = TeamEvaluator(config.mode, config.map, config.task, config.episodes, seed=config.seed,
+                                       evaluate_modules=config.evaluate_modules)
+        self.rows: list[list] = []
+        self.best_fitness = -np.inf
+        self.first_solved: Optional[int] = None
+        self.archived_fitness = -np.inf
+        self.wall = 0.0
+        ckpt = self.out / "checkpoint.json"
+        if resume:
+            self._resume(ckpt)
+        else:
+            if ckpt.exists():
+                raise ValueError(f"{str(self.out)!r} already holds a run (checkpoint.json); use --resume to continue "
+                                 "it or choose another --out")
+            self.population = Population.create(config.neat, seed=config.seed, kind=config.init,
+                                                n_inputs=config.n_cppn_inputs)
+            self.out.mkdir(parents=True, exist_ok=True)
+            atomic_write_json(self.out / "config.json", versioned("config", config.to_dict()))
+
+    # ------------------------------------------------------------------ checkpoint
+    def _resume(self, ckpt: Path) -> None:
+        data = read_versioned_json(ckpt, "checkpoint")
+        saved = data["config"]
+        asked = self.config.to_dict()
+        differing = sorted(k for k in asked if k != "generations" and saved.get(k) != asked[k])
+        if differing:
+            raise ValueError(f"cannot resume {str(self.out)!r}: configuration differs in {differing} "
+                             "(only --generations may change on resume)")
+        self.population = Population.from_dict(data["population"])
+        t = data["trainer"]
+        self.best_fitness = -np.inf if t["best_fitness"] is None else float(t["best_fitness"])
+        self.first_solved = t["first_solved"]
+        self.archived_fitness = -np.inf if t["archived_fitness"] is None else float(t["archived_fitness"])
+        self.wall = float(t["wall_seconds"])
+        self.rows = t["log"]
+
+    def _checkpoint(self) -> None:
+        state = {"config": self.config.to_dict(), "population": self.population.to_dict(), "trainer": {
+            "best_fitness": None if not np.isfinite(self.best_fitness) else self.best_fitness,
+            "first_solved": self.first_solved,
+            "archived_fitness": None if not np.isfinite(self.archived_fitness) else self.archived_fitness,
+            "wall_seconds": self.wall, "log": self.rows}}
+        atomic_write_json(self.out / "checkpoint.json", versioned("checkpoint", state))
+
+    # ------------------------------------------------------------------ loop
+    @property
+    def generation(self) -> int:
+        return self.population.generation
+
+    def step(self) -> Progress:
+        """Evaluate the current generation, record it, and breed the next."""
+        t0 = time.perf_counter()
+        cfg = self.config
+        genomes = self.population.ask()
+        ev = self.evaluator.evaluate(genomes)
+        gen = self.population.generation
+        order = np.argsort(-ev.fitness, kind="stable")
+        best = int(order[0])
+        solved_mask = ev.solved >= 1.0
+        self._record_best(gen, genomes, ev, best)
+        if solved_mask.any():
+            if self.first_solved is None:
+                self.first_solved = gen
+            s_best = int(order[np.argmax(solved_mask[order])])
+            if ev.fitness[s_best] > self.archived_fitness:
+                self.archived_fitness = float(ev.fitness[s_best])
+                self._champion(gen, genomes[s_best], ev, s_best).save(
+                    self.out / "archive" / f"solution_g{gen:05d}_i{s_best:04d}.json")
+        stats = self.population.tell(ev.fitness)
+        seconds = time.perf_counter() - t0
+        self.wall += seconds
+        evaluations = (gen + 1) * len(genomes) * cfg.episodes
+        self.rows.append([gen, evaluations, float(ev.fitness[best]), float(ev.fitness.mean()),
+                          float(self.best_fitness), bool(solved_mask[best]), int(solved_mask.sum()),
+                          stats.n_species, round(stats.threshold, 6), round(stats.mean_complexity, 3),
+                          round(seconds, 4)])
+        if (gen + 1) % cfg.checkpoint_every == 0:
+            self._write_log()
+            self._checkpoint()
+        return Progress(gen, cfg.generations, float(ev.fitness[best]), float(ev.fitness.mean()),
+                        float(self.best_fitness), stats.n_species, bool(solved_mask[best]), self.first_solved,
+                        seconds)
+
+    def _champion(self, gen: int, genome: Genome, ev, index: int) -> Champion:
+        return Champion(mode=self.config.mode, fitness=float(ev.fitness[index]), solved=bool(ev.solved[index] >= 1),
+                        generation=gen, genome=genome, controllers=ev.controllers.team(index),
+                        seed=self.config.seed, map=self.config.map)
+
+    def _record_best(self, gen: int, genomes, ev, best: int) -> None:
+        if ev.fitness[best] > self.best_fitness:
+            self.best_fitness = float(ev.fitness[best])
+            self._champion(gen, genomes[best], ev, best).save(self.out / "champion.json")
+
+    def _write_log(self) -> None:
+        atomic_write_csv(self.out / "log.csv", LOG_HEADER, self.rows)
+
+    def done(self) -> bool:
+        if self.generation >= self.config.generations:
+            return True
+        return self.config.stop_when_solved and self.first_solved is not None
+
+    def run(self, on_generation: Optional[Callable[[Progress], None]] = None) -> dict:
+        while not self.done():
+            p = self.step()
+            if on_generation is not None:
+                on_generation(p)
+        return self.finish()
+
+    def finish(self) -> dict:
+        """Write the log, checkpoint, summary and fitness plot for what has been run so far."""
+        self._write_log()
+        self._checkpoint()
+        summary = {"mode": self.config.mode, "seed": self.config.seed, "init": self.config.init,
+                   "map": self.config.map, "generations": self.generation,
+                   "population": self.config.neat.population_size,
+                   "best_fitness": None if not np.isfinite(self.best_fitness) else self.best_fitness,
+                   "solved": self.first_solved is not None, "first_solved_generation": self.first_solved,
+                   "evaluations": self.rows[-1][1] if self.rows else 0, "wall_seconds": round(self.wall, 3)}
+        atomic_write_json(self.out / "summary.json", summary)
+        from .plots import fitness_curve
+
+        fitness_curve(self.out / "log.csv", self.out / "fitness.png",
+                      title=f"{self.config.mode}, seed {self.config.seed}, pop {self.config.neat.population_size}")
+        return summary
+
+
+def train(config: TrainConfig, out_dir: "str | Path", resume: bool = False,
+          on_generation: Optional[Callable[[Progress], None]] = None) -> dict:
+    """Python API of `mahn-evo train`: run (or continue) a run and return its summary."""
+    return Trainer(config, out_dir, resume=resume).run(on_generation)
