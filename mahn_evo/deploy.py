@@ -1,0 +1,231 @@
+"""``mahn-evo deploy``: run an evolved team on real Khepera III robots (or the emulator), logging every tick.
+
+The champion's decoded controllers drive ``KheperaHardwareEnv`` through ``ControllerPolicy`` - the same network
+code as in training - so standard (signal as input) and situational (brain switch at the signal) teams both
+work.  Every tick of every robot becomes one CSV row: the inputs the network saw, its three outputs, the
+chosen action, the reflex's wheel motion, the exact ``D`` command sent, the measured control period and, when
+known, the pose.  The log is flushed each tick, so a run cut short still leaves its record.
+
+    mahn-evo deploy runs/s1/champion.json --ports /dev/rfcomm0 /dev/rfcomm1 /dev/rfcomm2
+    mahn-evo deploy champion.json --ports socket://127.0.0.1:4000 socket://127.0.0.1:4001 socket://127.0.0.1:4002 \\
+        --placement none
+    mahn-evo deploy champion.json --emulate            # starts an in-process emulator, no robots needed
+"""
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import math
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Callable, Optional, Sequence
+
+import numpy as np
+
+from mahn_envs.controllers import TeamControllers
+from mahn_envs.policy import ControllerPolicy
+
+LOG_HEADER = ("tick", "time", "agent", "ir0", "ir1", "ir2", "ir3", "ir4", "ir5", "signal", "out_left",
+              "out_forward", "out_right", "action", "motion", "command", "period", "x", "y", "heading")
+
+
+@dataclass
+class DeployResult:
+    ticks: int
+    log_path: Path
+    mode: str
+    mean_period: float
+    max_period: float
+    overruns: int
+    team_fitness: Optional[float]
+    solved: Optional[bool]
+
+
+def load_team(path: "str | Path") -> tuple[TeamControllers, dict[str, Any]]:
+    """The controllers of a champion file (``{"controllers": {...}}``) or of a bare controllers file."""
+    path = Path(path)
+    if not path.exists():
+        raise ValueError(f"champion file {str(path)!r} does not exist")
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"champion file {str(path)!r} is not valid JSON: {exc}") from exc
+    if not isinstance(data, dict):
+        raise ValueError(f"champion file {str(path)!r} must hold a JSON object")
+    ctrl = data.get("controllers", data if "w_ih" in data else None)
+    if not isinstance(ctrl, dict):
+        raise ValueError(f"champion file {str(path)!r} has no 'controllers' object")
+    try:
+        team = TeamControllers.from_dict(ctrl)
+    except ValueError as exc:
+        raise ValueError(f"champion file {str(path)!r}: {exc}") from exc
+    if team.batched:
+        raise ValueError(f"champion file {str(path)!r} holds a batch of teams; deploy takes one team")
+    return team, data
+
+
+def _fmt(v: float) -> str:
+    return "" if v is None or (isinstance(v, float) and not math.isfinite(v)) else f"{v:.6g}"
+
+
+def deploy(champion_path: "str | Path", ports: Optional[Sequence[str]] = None, *,
+           log_path: "str | Path | None" = None, map: Optional[str] = None, max_cycles: int = 1364,
+           signal_tick: int = 690, auto_signal: bool = True, placement: Any = "prompt",
+           time_scale: float = 1.0, forward_speed: Optional[float] = None, turn_rate: Optional[float] = None,
+           wheel_base: float = 8.85, speed_unit: Any = "auto", calibration: Any = "paper", reflex: bool = True,
+           timeout: float = 0.4, attempts: int = 3, emulate: bool = False, emulator_seed: int = 0,
+           clock: Any = None, env_kwargs: Optional[dict] = None, on_tick: Optional[Callable[[int, dict], None]] = None,
+           quiet: bool = True) -> DeployResult:
+    """Run the champion's team for one episode on the robots at `ports` and log every tick to CSV.
+
+    With ``emulate=True`` an in-process emulator stands in for the robots (`ports` must then be None); it
+    also acts as the overhead tracker, so the log has poses and the result the task's fitness.  `clock`
+    (default: real time times `time_scale`) paces the env and the emulator; a VirtualClock runs lock-step.
+    Returns a :class:`DeployResult`; the robots are stopped whatever happens.
+    """
+    from mahn_envs.hardware import KheperaEmulator, KheperaHardwareEnv, RealClock, RetryPolicy
+
+    team, data = load_team(champion_path)
+    map_name = map if map is not None else data.get("map", "plus")
+    n = team.n_robots
+    if emulate:
+        if ports:
+            raise ValueError("give either ports or emulate=True, not both")
+    elif not ports:
+        raise ValueError("deploy needs one port per robot (or emulate=True)")
+    elif len(ports) != n:
+        raise ValueError(f"the team has {n} robots but {len(ports)} port(s) were given")
+    if log_path is None:
+        stamp = time.strftime("%Y%m%d-%H%M%S")
+        log_path = Path(champion_path).with_name(f"deploy-{stamp}.csv")
+    log_path = Path(log_path)
+    log_path.parent.mkdir(parents=True, exist_ok=True)
+    clock = clock if clock is not None else RealClock(time_scale)
+    kwargs = dict(map=map_name, forward_speed=forward_speed, turn_rate=turn_rate, wheel_base=wheel_base,
+                  speed_unit=speed_unit, calibration=calibration, reflex=reflex, clock=clock,
+                  max_cycles=max_cycles, signal_tick=signal_tick, auto_signal=auto_signal, placement=placement,
+                  retry=RetryPolicy(timeout=timeout, attempts=attempts))
+    kwargs.update(env_kwargs or {})
+    emulator = None
+    try:
+        if emulate:
+            emulator = KheperaEmulator(n, map=map_name, clock=clock, seed=emulator_seed).start()
+            ports = emulator.ports
+            kwargs["placement"] = emulator.place
+            kwargs.setdefault("pose_source", emulator.poses)
+        with KheperaHardwareEnv(list(ports), **kwargs) as env, open(log_path, "w", newline="") as f:
+            writer = csv.writer(f, lineterminator="\n")
+            writer.writerow(LOG_HEADER)
+            policy = ControllerPolicy(team, env.possible_agents)
+            obs, infos = env.reset()
+            policy.reset()
+            periods = []
+            t0 = clock.now()
+            last_infos = infos
+            while env.agents:
+                live = list(env.agents)
+                actions = policy.act(obs)
+                outputs = policy.outputs
+                inputs = {a: obs[a].copy() for a in live}
+                obs, rewards, terms, truncs, infos = env.step(actions)
+                now = clock.now() - t0
+                for k, a in enumerate(env.possible_agents):
+                    if a not in infos:
+                        continue
+                    info = infos[a]
+                    pose = info["pose"] or (float("nan"),) * 3
+                    writer.writerow([info["tick"], f"{now:.4f}", a, *(f"{v:.6g}" for v in inputs[a]),
+                                     *(f"{v:.6g}" for v in outputs[k]), actions[a], info["motion"],
+                                     info["command"], f"{info['period']:.6f}", *(_fmt(v) for v in pose)])
+                f.flush()
+                periods.append(infos[live[0]]["period"])
+                last_infos = infos
+                if on_tick is not None:
+                    on_tick(infos[live[0]]["tick"], infos)
+                if not quiet and infos[live[0]]["tick"] % 100 == 0:
+                    print(f"tick {infos[live[0]]['tick']}: period {periods[-1] * 1000:.1f} ms", flush=True)
+            last = last_infos[env.possible_agents[0]]
+            p = np.asarray(periods) if periods else np.zeros(1)
+            return DeployResult(ticks=int(last.get("tick", 0)), log_path=log_path, mode=team.mode,
+                                mean_period=float(p.mean()), max_period=float(p.max()), overruns=env.overruns,
+                                team_fitness=last.get("team_fitness"), solved=last.get("solved"))
+    finally:
+        if emulator is not None:
+            emulator.stop()
+
+
+# ---------------------------------------------------------------------------------------------- CLI
+def add_deploy_parser(subparsers) -> argparse.ArgumentParser:
+    """Register ``deploy`` on an argparse subparsers object; the parser's ``func`` runs it (returns an exit code)."""
+    p = subparsers.add_parser("deploy", help="run an evolved team on Khepera III robots or the emulator",
+                              description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("champion", help="champion.json (or a controllers JSON file)")
+    p.add_argument("--ports", nargs="+", default=None, metavar="URL",
+                   help="one pyserial URL per robot: /dev/rfcomm0, socket://host:port, rfc2217://host:port")
+    p.add_argument("--emulate", action="store_true", help="run against an in-process emulator instead of robots")
+    p.add_argument("--log", default=None, help="CSV log path (default: deploy-<time>.csv next to the champion)")
+    p.add_argument("--map", default=None, help="map for start poses and scoring (default: the champion's)")
+    p.add_argument("--max-cycles", type=int, default=1364, help="ticks to run (default 1364 = 45 s)")
+    p.add_argument("--signal-tick", type=int, default=690, help="tick of the come-home signal (default 690)")
+    p.add_argument("--no-auto-signal", action="store_true", help="no scheduled signal")
+    p.add_argument("--placement", choices=["prompt", "none"], default="prompt",
+                   help="prompt: wait for Enter after asking to place the robots; none: they are in place")
+    p.add_argument("--time-scale", type=float, default=1.0,
+                   help="robot seconds per wall second (only with an emulator started with the same value)")
+    p.add_argument("--forward-speed", type=float, default=None, help="cm/s (default 9, the simulator's)")
+    p.add_argument("--turn-rate", type=float, default=None, help="rad/s (default 2.0933, the simulator's)")
+    p.add_argument("--wheel-base", type=float, default=8.85, help="cm (default 8.85)")
+    p.add_argument("--speed-unit", type=float, default=None,
+                   help="firmware units per mm/s (default: from the B reply, 218.72 for firmware >= 3)")
+    p.add_argument("--calibration", choices=["paper", "linear"], default="paper", help="raw IR -> [0, 1]")
+    p.add_argument("--no-reflex", action="store_true", help="turn the collision-avoidance reflex off")
+    p.add_argument("--timeout", type=float, default=0.4, help="seconds to wait for a reply (default 0.4)")
+    p.add_argument("--attempts", type=int, default=3, help="tries per command (default 3)")
+    p.add_argument("--seed", type=int, default=0, help="emulator noise seed (with --emulate)")
+    p.set_defaults(func=run_deploy)
+    return p
+
+
+def run_deploy(args: argparse.Namespace) -> int:
+    import signal as _signal
+    import threading
+
+    def _exit_on_sigterm(signum: int, frame: Any) -> None:
+        raise SystemExit(128 + signum)
+
+    if threading.current_thread() is threading.main_thread():  # SIGTERM -> SystemExit: the stops still run
+        _signal.signal(_signal.SIGTERM, _exit_on_sigterm)
+    try:
+        result = deploy(args.champion, args.ports, log_path=args.log, map=args.map, max_cycles=args.max_cycles,
+                        signal_tick=args.signal_tick, auto_signal=not args.no_auto_signal,
+                        placement=args.placement, time_scale=args.time_scale, forward_speed=args.forward_speed,
+                        turn_rate=args.turn_rate, wheel_base=args.wheel_base,
+                        speed_unit="auto" if args.speed_unit is None else args.speed_unit,
+                        calibration=args.calibration, reflex=not args.no_reflex, timeout=args.timeout,
+                        attempts=args.attempts, emulate=args.emulate, emulator_seed=args.seed, quiet=False)
+    except KeyboardInterrupt:
+        print("deploy: interrupted; robots stopped", file=sys.stderr)
+        return 130
+    except (ValueError, RuntimeError, OSError) as exc:
+        print(f"deploy: {exc}", file=sys.stderr)
+        return 1
+    fit = "n/a (no pose tracking)" if result.team_fitness is None else f"{result.team_fitness:.3f}"
+    print(f"{result.mode} team, {result.ticks} ticks; control period mean {result.mean_period * 1000:.1f} ms, "
+          f"max {result.max_period * 1000:.1f} ms, {result.overruns} overruns; team fitness {fit}, "
+          f"solved {result.solved}; log {result.log_path}")
+    return 0
+
+
+def main(argv: Optional[Sequence[str]] = None) -> int:
+    parser = argparse.ArgumentParser(prog="mahn-evo")
+    sub = parser.add_subparsers(dest="command", required=True)
+    add_deploy_parser(sub)
+    args = parser.parse_args(argv)
+    return args.func(args)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
