@@ -39,8 +39,13 @@ def _jsonable(value: Any) -> Any:
     return value
 
 
-def atomic_write_json(path: "str | Path", data: Mapping[str, Any]) -> None:
-    atomic_write_text(path, json.dumps(data, indent=1, allow_nan=False, default=_jsonable) + "\n")
+def atomic_write_json(path: "str | Path", data: Mapping[str, Any], compact: bool = False) -> None:
+    """Indented for files people read; compact (C encoder, ~5x faster) for large machine files."""
+    if compact:
+        text = json.dumps(data, separators=(",", ":"), allow_nan=False, default=_jsonable)
+    else:
+        text = json.dumps(data, indent=1, allow_nan=False, default=_jsonable)
+    atomic_write_text(path, text + "\n")
 
 
 def atomic_write_csv(path: "str | Path", header: Sequence[str], rows: Iterable[Sequence[Any]]) -> None:

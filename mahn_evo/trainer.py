@@ -94,7 +94,7 @@ class Trainer:
             "first_solved": self.first_solved,
             "archived_fitness": None if not np.isfinite(self.archived_fitness) else self.archived_fitness,
             "wall_seconds": self.wall, "log": self.rows}}
-        atomic_write_json(self.out / "checkpoint.json", versioned("checkpoint", state))
+        atomic_write_json(self.out / "checkpoint.json", versioned("checkpoint", state), compact=True)
 
     # ------------------------------------------------------------------ loop
     @property
