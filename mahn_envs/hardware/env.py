@@ -50,9 +50,10 @@ PoseSource = Callable[[], Any]
 Placement = Callable[[dict], None]
 
 
-def prompt_placement(targets: Mapping[str, Optional[tuple]], input_fn: Callable[[str], str] = input,
+def prompt_placement(targets: Mapping[str, Optional[tuple]], input_fn: Optional[Callable[[str], str]] = None,
                      print_fn: Callable[..., None] = print) -> None:
     """Ask the operator to put the robots at their start poses and press Enter."""
+    input_fn = input_fn if input_fn is not None else input
     print_fn("Place the robots (map frame: x right, y up, cm; heading in degrees, 90 = up):")
     for agent, pose in targets.items():
         if pose is None:
@@ -533,8 +534,13 @@ class KheperaHardwareEnv(ParallelEnv):
             if self._links:
                 self.stop_all()
         finally:
-            for link in self._links:
-                link.close()
+            # pyserial's socket:// close waits 0.3 s per port ("give the server some time"): close in parallel
+            closers = [threading.Thread(target=link.close, name=f"khepera-close-{link.name}", daemon=True)
+                       for link in self._links]
+            for t in closers:
+                t.start()
+            for t in closers:
+                t.join(5.0)
             atexit.unregister(self._atexit_hook)
             if self._prev_sigterm is not None:
                 try:

@@ -1,0 +1,66 @@
+"""Fixtures: emulators and hardware envs that are always stopped and closed, bounded in time."""
+from __future__ import annotations
+
+import threading
+
+import pytest
+
+from mahn_envs.hardware import KheperaEmulator, KheperaHardwareEnv, RetryPolicy, VirtualClock
+
+
+@pytest.fixture
+def vclock():
+    return VirtualClock()
+
+
+@pytest.fixture
+def make_emulator():
+    started: list[KheperaEmulator] = []
+
+    def make(n_robots: int = 3, **kwargs) -> KheperaEmulator:
+        kwargs.setdefault("noise", 0.0)
+        emu = KheperaEmulator(n_robots, **kwargs).start()
+        started.append(emu)
+        return emu
+
+    yield make
+    for emu in started:
+        emu.stop(timeout=5.0)
+        assert not emu.errors, emu.errors
+
+
+@pytest.fixture
+def make_env(make_emulator, vclock):
+    """An env on a fresh lock-step emulator; returns (env, emulator).  Closed at teardown."""
+    envs: list[KheperaHardwareEnv] = []
+
+    def make(emu_kwargs: dict | None = None, **env_kwargs):
+        emu_kwargs = dict(emu_kwargs or {})
+        emu_kwargs.setdefault("clock", vclock)
+        emu = make_emulator(**emu_kwargs)
+        env_kwargs.setdefault("clock", emu.world.clock)
+        env_kwargs.setdefault("placement", emu.place)
+        env_kwargs.setdefault("pose_source", emu.poses)
+        env_kwargs.setdefault("retry", RetryPolicy(timeout=1.0, attempts=3))
+        env_kwargs.setdefault("catch_sigterm", False)
+        env = KheperaHardwareEnv(emu.ports, **env_kwargs)
+        envs.append(env)
+        return env, emu
+
+    yield make
+    for env in envs:
+        env.close()
+
+
+@pytest.fixture(autouse=True)
+def no_leaked_threads():
+    before = set(threading.enumerate())
+    yield
+    leaked = [t.name for t in threading.enumerate() if t not in before and t.is_alive()
+              and t.name.startswith("khepera-emulator")]
+    assert not leaked, f"emulator threads left running: {leaked}"
+
+
+def last_command(emu: KheperaEmulator, robot: int) -> str:
+    cmds = emu.commands(robot)
+    return cmds[-1] if cmds else ""
