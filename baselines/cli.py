@@ -25,7 +25,7 @@ def _add_task_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--n-episodes", type=int, default=16, help="lock-stepped episodes per batch (slots = x3)")
     p.add_argument("--max-cycles", type=int, default=1364, help="episode length in ticks (default: the paper's)")
     p.add_argument("--signal-tick", type=int, default=690, help="tick of the come-home signal")
-    p.add_argument("--reward-scale", type=float, default=0.01, help="training reward = team reward x this")
+    p.add_argument("--reward-scale", type=float, default=0.1, help="training reward = team reward x this")
     p.add_argument("--eval-every", type=int, default=0, help="robot-steps between evaluations (0: steps/20)")
     p.add_argument("--threads", type=int, default=1, help="torch threads")
     p.add_argument("--hyperparams", type=_json_dict, default={}, help="JSON overrides of the SB3 hyper-parameters")

@@ -34,7 +34,7 @@ class TrainConfig:
     n_episodes: int = 16
     max_cycles: int = 1364
     signal_tick: int = 690
-    reward_scale: float = 0.01
+    reward_scale: float = 0.1
     eval_every: int = 0  #: robot-steps between evaluations; 0 = steps / 20
     eval_maps: Sequence[str] = EVAL_MAPS
     torch_threads: int = 1

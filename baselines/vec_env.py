@@ -54,8 +54,7 @@ class PatrolReturnVecEnv:
     """SB3 `VecEnv` of `n_episodes` lock-stepped episodes x R robots (num_envs = n_episodes * R).
 
     Rewards: every slot of an episode gets that episode's shared team reward times `reward_scale` (a constant
-    scale keeps the optimal policy; 0.01 puts the +100 "solved" bonus at 1.0, which suits SB3's default
-    gradient clipping).  The `episode` info written at the end of an episode (read by SB3's logger as
+    scale keeps the optimal policy and keeps the value targets in a range SB3's defaults handle).  The `episode` info written at the end of an episode (read by SB3's logger as
     `rollout/ep_rew_mean`) is always the unscaled team fitness, the paper's score, so TensorBoard curves compare
     directly with evolution; infos then also carry `team_fitness` and `solved`.
 

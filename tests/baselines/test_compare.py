@@ -1,0 +1,75 @@
+"""Budget matching and aggregation of the comparison, on synthetic run directories (no training needed)."""
+from __future__ import annotations
+
+import json
+import math
+
+import pytest
+
+from baselines.cli import main
+from baselines.compare import compare, evo_budget, evo_curve, rl_curve
+from baselines.io import read_csv, write_csv, write_json
+
+
+def _rl_run(root, algo, seed, rows):
+    d = root / f"{algo}_seed{seed}"
+    write_json(d / "config.json", {"algo": algo, "seed": seed, "map": "plus"})
+    write_csv(d / "eval_log.csv", ["steps", "fitness_plus", "solved_plus"],
+              [{"steps": s, "fitness_plus": f, "solved_plus": int(v)} for s, f, v in rows])
+    write_json(d / "summary.json", {})
+    return d
+
+
+def _evo_run(root, mode, seed, rows):
+    d = root / f"evo_{mode}_{seed}"
+    write_csv(d / "log.csv", ["generation", "evaluations", "best_fitness", "solved"],
+              [{"generation": g, "evaluations": e, "best_fitness": f, "solved": v} for g, (e, f, v) in enumerate(rows)])
+    write_json(d / "summary.json", {"mode": mode, "seed": seed})
+    return d
+
+
+def test_evo_budget_is_teams_times_ticks_times_robots(tmp_path) -> None:
+    d = _evo_run(tmp_path, "situational", 0, [(100, 5.0, False), (200, 130.0, True)])
+    c = evo_curve(d)
+    assert c.method == "hyperneat_situational"
+    assert list(c.budget) == [100 * 1364 * 3, 200 * 1364 * 3]
+    assert evo_budget([d]) == 200 * 1364 * 3
+
+
+def test_best_so_far_and_step_lookup(tmp_path) -> None:
+    c = rl_curve(_rl_run(tmp_path, "ppo", 0, [(0, 1.0, 0), (1000, 3.0, 0), (2000, 2.0, 0), (3000, 120.0, 1)]))
+    assert list(c.fitness) == [1.0, 3.0, 3.0, 120.0]  # best so far, like evolution's champion
+    assert c.at(1500) == (3.0, 0.0) and c.at(3000) == (120.0, 1.0)
+    assert math.isnan(c.at(10_000)[0])  # beyond the run's budget: no claim
+
+
+def test_compare_writes_table_plot_and_json(tmp_path) -> None:
+    rl = [_rl_run(tmp_path, "ppo", s, [(0, 1.0, 0), (409_200, 2.0 + s, 0), (818_400, 3.0 + s, 0)]) for s in (0, 1)]
+    evo = [_evo_run(tmp_path, "standard", 0, [(100, 10.0, 0), (200, 150.0, 1)]),
+           _evo_run(tmp_path, "situational", 0, [(100, 110.0, "True"), (200, 150.0, "True")])]
+    out = tmp_path / "results"
+    payload = compare(rl, evo, out, points=5)
+    for name in ("comparison.csv", "comparison.md", "comparison.json", "comparison.png"):
+        assert (out / name).stat().st_size > 0
+    table = {r["method"]: r for r in payload["table"]}
+    assert table["ppo"]["runs"] == 2 and table["ppo"]["fitness_mean"] == pytest.approx(3.5)
+    assert table["hyperneat_situational"]["solved_rate"] == 1.0
+    assert table["hyperneat_situational"]["median_budget_to_solve"] == 100 * 1364 * 3
+    rows = read_csv(out / "comparison.csv")
+    assert {r["method"] for r in rows} == {"ppo", "hyperneat_standard", "hyperneat_situational"}
+    assert json.loads((out / "comparison.json").read_text())["budgets"] == payload["budgets"]
+
+
+def test_cli_compare_existing_runs_only(tmp_path, capsys) -> None:
+    _rl_run(tmp_path, "dqn", 0, [(0, 1.0, 0), (5000, 2.0, 0)])
+    evo = _evo_run(tmp_path, "standard", 1, [(10, 1.5, 0)])
+    assert main(["compare", "--no-train", "--runs-dir", str(tmp_path), "--algos", "dqn", "--seeds", "0",
+                 "--evo-runs", str(evo), "--out", str(tmp_path / "o")]) == 0
+    assert "hyperneat_standard" in capsys.readouterr().out
+
+
+def test_evo_log_missing_columns_is_named(tmp_path) -> None:
+    d = tmp_path / "bad"
+    write_csv(d / "log.csv", ["generation", "best_fitness"], [{"generation": 0, "best_fitness": 1}])
+    with pytest.raises(ValueError, match="evaluations"):
+        evo_curve(d)
