@@ -86,3 +86,14 @@ def test_supersuit_route_runs() -> None:
         obs, rew, done, infos = venv.step(np.ones(6, dtype=np.int64))
     assert done.all()
     venv.close()
+
+
+def test_supersuit_example_runs() -> None:
+    import pathlib
+    import subprocess
+    import sys
+
+    example = pathlib.Path(__file__).resolve().parents[2] / "examples" / "supersuit_ppo.py"
+    out = subprocess.run([sys.executable, str(example), "--steps", "600", "--envs", "2", "--max-cycles", "60"],
+                         check=True, capture_output=True, text=True).stdout
+    assert "team fitness" in out
