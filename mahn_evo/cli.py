@@ -17,7 +17,7 @@ def _train_parser(sub) -> None:
     p.add_argument("--generations", type=int, help="generations to run (default 1000, as the paper)")
     p.add_argument("--pop", type=int, help="population size (default 500, as the paper)")
     p.add_argument("--seed", type=int, help="the run's only seed (default 0)")
-    p.add_argument("--init", choices=INITS, help="initial population (default iros2011: the original seed genome)")
+    p.add_argument("--init", choices=INITS, help="initial population: minimal (default; every CPPN input wired to both outputs, so teams differ from generation 0) or iros2011 (the original seed genome, whose x1, x2, z paths are inert at first)")
     p.add_argument("--map", help="training map (default plus)")
     p.add_argument("--episodes", type=int, help="episodes per evaluation (default 1; >1 only with noise)")
     p.add_argument("--evaluate-modules", action="store_true", default=None,

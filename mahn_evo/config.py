@@ -26,7 +26,7 @@ class TrainConfig:
     mode: str = "situational"
     generations: int = 1000
     seed: int = 0
-    init: str = "iros2011"
+    init: str = "minimal"
     map: str = "plus"
     evaluate_modules: bool = False
     episodes: int = 1
