@@ -80,8 +80,9 @@ def run_emulate(args: argparse.Namespace) -> int:
     def _on_term(signum, frame):  # SIGTERM: shut down like Ctrl-C
         done.set()
 
+    previous = None
     if threading.current_thread() is threading.main_thread():
-        signal.signal(signal.SIGTERM, _on_term)
+        previous = signal.signal(signal.SIGTERM, _on_term)
     emu.start()
     try:
         for k, url in enumerate(emu.ports):
@@ -105,6 +106,8 @@ def run_emulate(args: argparse.Namespace) -> int:
         pass
     finally:
         emu.stop()
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
         if emu.errors:
             print("emulator errors:\n  " + "\n  ".join(emu.errors), file=sys.stderr)
         print("emulator stopped", flush=True)

@@ -196,8 +196,9 @@ def run_deploy(args: argparse.Namespace) -> int:
     def _exit_on_sigterm(signum: int, frame: Any) -> None:
         raise SystemExit(128 + signum)
 
+    previous = None
     if threading.current_thread() is threading.main_thread():  # SIGTERM -> SystemExit: the stops still run
-        _signal.signal(_signal.SIGTERM, _exit_on_sigterm)
+        previous = _signal.signal(_signal.SIGTERM, _exit_on_sigterm)
     try:
         result = deploy(args.champion, args.ports, log_path=args.log, map=args.map, max_cycles=args.max_cycles,
                         signal_tick=args.signal_tick, auto_signal=not args.no_auto_signal,
@@ -212,6 +213,9 @@ def run_deploy(args: argparse.Namespace) -> int:
     except (ValueError, RuntimeError, OSError) as exc:
         print(f"deploy: {exc}", file=sys.stderr)
         return 1
+    finally:
+        if previous is not None:
+            _signal.signal(_signal.SIGTERM, previous)
     fit = "n/a (no pose tracking)" if result.team_fitness is None else f"{result.team_fitness:.3f}"
     print(f"{result.mode} team, {result.ticks} ticks; control period mean {result.mean_period * 1000:.1f} ms, "
           f"max {result.max_period * 1000:.1f} ms, {result.overruns} overruns; team fitness {fit}, "
