@@ -45,6 +45,32 @@ def _eval_parser(sub) -> None:
     p.add_argument("--json", action="store_true", help="print the result as JSON")
 
 
+def _generalize_parser(sub) -> None:
+    p = sub.add_parser("generalize", help="rank a run's archived solutions under noise (the paper's test)")
+    p.add_argument("run_dir", type=Path)
+    p.add_argument("--episodes", type=int, default=25)
+    p.add_argument("--map", default="plus")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--noise", default="generalization", help="noise preset (default generalization)")
+    p.add_argument("--json", action="store_true")
+
+
+def cmd_generalize(args) -> int:
+    from .evaluate import task_params
+    from .generalize import generalize
+
+    rows = generalize(args.run_dir, episodes=args.episodes, map=args.map, params=task_params(args.noise),
+                      seed=args.seed)
+    if args.json:
+        print(json.dumps(rows, indent=1))
+    else:
+        print(f"{'rank':>4}  {'generation':>10}  {'solved':>6}  {'mean fitness':>12}  file")
+        for r in rows:
+            print(f"{r['rank']:4d}  {r['generation']:10d}  {r['solved_fraction']:6.2f}  {r['mean_fitness']:12.3f}  "
+                  f"{r['file']}")
+    return 0
+
+
 def _progress_printer(quiet: bool, total: int):
     if quiet:
         return None, None
@@ -143,6 +169,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True)
     _train_parser(sub)
     _eval_parser(sub)
+    _generalize_parser(sub)
     try:
         from .deploy import add_deploy_parser
     except ImportError:
@@ -160,6 +187,8 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
             return cmd_train(args)
         if args.command == "eval":
             return cmd_eval(args)
+        if args.command == "generalize":
+            return cmd_generalize(args)
         return int(args.func(args) or 0)
     except ValueError as exc:
         print(f"mahn-evo: error: {exc}", file=sys.stderr)

@@ -1,0 +1,68 @@
+"""The paper's generalisation test: score every archived solution of a run under noise and rank them.
+
+Each solution plays `episodes` (default 25) keyed episodes on the plus map with sensor noise, stochastic turning
+and locomotion, and small start perturbations (the `generalization` noise preset); every solution sees the same
+noise realisations (common random numbers), so the ranking compares teams, not luck.  The most general
+solution of a run is the top row.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any, Optional
+
+import numpy as np
+
+from mahn_envs.controllers import TeamControllers
+from mahn_envs.core import BatchSim, TaskParams
+
+from .champion import Champion
+from .evaluate import task_params
+from .files import atomic_write_csv, atomic_write_json, versioned
+
+
+def solutions_of(run_dir: "str | Path") -> list[Path]:
+    """Archived solutions of a run (falls back to the champion when the archive is empty)."""
+    run = Path(run_dir)
+    if not run.is_dir():
+        raise ValueError(f"run folder {str(run)!r} does not exist")
+    files = sorted((run / "archive").glob("solution_*.json")) if (run / "archive").is_dir() else []
+    if not files and (run / "champion.json").exists():
+        files = [run / "champion.json"]
+    if not files:
+        raise ValueError(f"run folder {str(run)!r} has no archive/ solutions and no champion.json")
+    return files
+
+
+def generalize(run_dir: "str | Path", episodes: int = 25, map: str = "plus", params: Optional[TaskParams] = None,
+               seed: int = 0, write: bool = True) -> list[dict[str, Any]]:
+    """Rank a run's solutions by mean fitness under noise; writes generalization.json/.csv in the run folder."""
+    files = solutions_of(run_dir)
+    params = params if params is not None else task_params("generalization")
+    champs = [Champion.load(f) for f in files]
+    modes = {c.mode for c in champs}
+    if len(modes) != 1:
+        raise ValueError(f"solutions of one run must share a mode, found {sorted(modes)}")
+    teams = TeamControllers.stack([c.controllers for c in champs])
+    n = len(champs)
+    sim = BatchSim(map, n * episodes, params)
+    batch = TeamControllers(*(np.repeat(getattr(teams, f), episodes, axis=0)
+                              for f in ("w_ih", "w_hh", "w_ho", "b_h", "b_o")))
+    keys = np.tile(np.arange(episodes), n)
+    res = sim.run_controllers(batch, seed=seed, episode_keys=keys)
+    fit = res.fitness.reshape(n, episodes)
+    solved = res.solved.reshape(n, episodes)
+    rows = []
+    for i, (f, c) in enumerate(zip(files, champs)):
+        rows.append({"file": f.name, "generation": c.generation, "training_fitness": c.fitness,
+                     "mean_fitness": float(fit[i].mean()), "std_fitness": float(fit[i].std()),
+                     "solved_fraction": float(solved[i].mean())})
+    rows.sort(key=lambda r: (-r["solved_fraction"], -r["mean_fitness"], r["generation"]))
+    for rank, r in enumerate(rows, 1):
+        r["rank"] = rank
+    if write:
+        run = Path(run_dir)
+        atomic_write_json(run / "generalization.json", versioned("generalization", {
+            "map": map, "episodes": episodes, "seed": seed, "params": params.to_dict(), "ranking": rows}))
+        header = ["rank", "file", "generation", "training_fitness", "mean_fitness", "std_fitness", "solved_fraction"]
+        atomic_write_csv(run / "generalization.csv", header, [[r[h] for h in header] for r in rows])
+    return rows
