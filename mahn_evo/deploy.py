@@ -120,6 +120,8 @@ def deploy(champion_path: "str | Path", ports: Optional[Sequence[str]] = None, *
             writer = csv.writer(f, lineterminator="\n")
             writer.writerow(LOG_HEADER)
             policy = ControllerPolicy(team, env.possible_agents)
+            # compile / load the network before the robots are placed, not inside the first control tick
+            policy.act({a: np.ones(7, dtype=np.float32) for a in env.possible_agents})
             obs, infos = env.reset()
             policy.reset()
             periods = []
