@@ -68,7 +68,8 @@ def add_node(
 ) -> Genome | None:
     """Split a random connection a->b with a new hidden node n: add a->n (w=1) and n->b (old weight).
 
-    The split connection is kept (a parallel path), as in the original.  Splitting the same connection twice in
+    The split connection is kept (a parallel path), as in the original, unless
+    ``settings.add_node_keeps_split_connection`` is False (then it is removed, as classic NEAT disables it).  Splitting the same connection twice in
     one generation reuses the node id, its activation and both connection ids.  Returns None if there is no
     connection to split.
     """
@@ -86,12 +87,15 @@ def add_node(
         rec = (tracker.new_id(), act, tracker.new_id(), tracker.new_id())
         tracker.splits.setdefault(split, rec)
     nid, act, cin, cout = rec
+    keep = np.ones(n, dtype=bool)
+    if not settings.add_node_keeps_split_connection:
+        keep[k] = False
     return Genome(
         genome.nodes + (NodeGene(nid, "hidden", act),),
-        np.append(genome.innov, (cin, cout)),
-        np.append(genome.src, (a, nid)),
-        np.append(genome.dst, (nid, b)),
-        np.append(genome.weight, (1.0, genome.weight[k])),
+        np.append(genome.innov[keep], (cin, cout)),
+        np.append(genome.src[keep], (a, nid)),
+        np.append(genome.dst[keep], (nid, b)),
+        np.append(genome.weight[keep], (1.0, genome.weight[k])),
         genome.modules,
     )
 

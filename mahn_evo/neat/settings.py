@@ -66,6 +66,9 @@ class NeatSettings:
     #: Recurrent connections and self-loops may be added.  The CPPN activation ignores them (they contribute 0),
     #: but they are part of the genome and of the compatibility distance.
     allow_recurrent: bool = True
+    #: Add-node keeps the split connection (a parallel path), as the original does.  False removes it instead
+    #: (classic NEAT disables it), which preserves the parent's function better on direct encodings like XOR.
+    add_node_keeps_split_connection: bool = True
     #: Activation functions a new hidden node draws from, uniformly.
     hidden_activations: tuple[str, ...] = ("bipolar_sigmoid", "gaussian", "abs", "sine")
 
@@ -174,6 +177,11 @@ class NeatSettings:
             "must be an int >= 1",
         )
         _check(isinstance(self.allow_recurrent, bool), "allow_recurrent", "must be a bool")
+        _check(
+            isinstance(self.add_node_keeps_split_connection, bool),
+            "add_node_keeps_split_connection",
+            "must be a bool",
+        )
         _check(isinstance(self.evaluate_modules, bool), "evaluate_modules", "must be a bool")
         _check(
             isinstance(self.hidden_activations, tuple)
