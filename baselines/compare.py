@@ -85,14 +85,15 @@ def evo_curve(run_dir: "str | Path", ticks: int = TICKS, robots: int = ROBOTS) -
 
 
 def budget_grid(curves: Sequence[Curve], points: int = 12) -> np.ndarray:
-    """Log-spaced budgets from the smallest positive first record to the largest common-ish end."""
+    """Log-spaced budgets from the smallest positive first record to the largest end, plus every run's end
+    (so each method's full-budget value appears in the table and on the plot)."""
     ends = [c.budget[-1] for c in curves]
     starts = [c.budget[c.budget > 0][0] for c in curves if np.any(c.budget > 0)]
     lo = max(min(starts) if starts else 1.0, 1.0)
     hi = max(ends)
     if hi <= lo:
         return np.array([hi])
-    return np.unique(np.round(np.geomspace(lo, hi, points)))
+    return np.unique(np.concatenate([np.round(np.geomspace(lo, hi, points)), np.asarray(ends, dtype=float)]))
 
 
 def aggregate(curves: Sequence[Curve], budgets: np.ndarray) -> list[dict[str, Any]]:
