@@ -43,7 +43,7 @@ from .calibration import make_calibration
 from .clock import RealClock
 from .errors import HardwareError, ProtocolError
 from .kinematics import WHEEL_BASE_CM, Drive, speed_unit_for_version, SPEED_UNIT_V3
-from .reflex import Motion, reflex_motion
+from .reflex import reflex_motion
 from .transport import RetryPolicy, RobotLink, open_url
 
 PoseSource = Callable[[], Any]
@@ -251,10 +251,11 @@ class KheperaHardwareEnv(ParallelEnv):
                 ver = link.transact(P.version())
                 self.firmware[agent] = (ver.version, ver.revision)
             except ProtocolError as exc:
-                if exc.reply != P.ERROR_MARK or units[k] is not None:
+                if exc.reply != P.ERROR_MARK:
                     raise
-                warnings.warn(f"{agent}: firmware does not answer B; assuming speed unit {SPEED_UNIT_V3} "
-                              "units per mm/s (pass speed_unit= to set it)", stacklevel=3)
+                if units[k] is None:
+                    warnings.warn(f"{agent}: firmware does not answer B; assuming speed unit {SPEED_UNIT_V3} "
+                                  "units per mm/s (pass speed_unit= to set it)", stacklevel=3)
                 self.firmware[agent] = None
             if units[k] is None:
                 fw = self.firmware[agent]

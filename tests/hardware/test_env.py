@@ -228,3 +228,18 @@ def test_render_rgb_array_with_a_tracker(make_env):
     frame = env.render()
     assert frame.ndim == 3 and frame.shape[2] == 3
     assert np.all(np.isfinite(env.state()))
+
+
+def test_firmware_without_B_falls_back_to_the_default_speed_unit():
+    from .test_transport import FakePort
+
+    def opener(url, timeout, baudrate):
+        return FakePort([b"$\r\n", b"m\r\n", b"d\r\n", b"d\r\n"], timeout)
+
+    with pytest.warns(UserWarning, match="does not answer B"):
+        env = KheperaHardwareEnv(["fake://0"], placement="none", catch_sigterm=False, opener=opener)
+    assert env.firmware == {"robot_0": None} and env.speed_units == [218.72]
+    env.close()
+    env = KheperaHardwareEnv(["fake://0"], placement="none", catch_sigterm=False, opener=opener, speed_unit=150.0)
+    assert env.speed_units == [150.0]
+    env.close()
