@@ -36,8 +36,8 @@ def xor_settings(population_size: int = 150, **overrides: object) -> NeatSetting
     - ``selection_proportion=0.2``: parents from the best 20 % of a species (NEAT's survival threshold);
     - ``weight_limit=3``, ``weight_jiggle=0.3``: sigmoid XOR needs weights beyond +-1.5 for clear margins, and a
       jiggle of 0.05 is too small to move them in few generations;
-    - ``stagnation_generations=15``: NEAT's XOR drop-off age, so species stuck on the 3-of-4 local optimum
-      give way;
+    - the drop-off age stays at the original's 200: NEAT's 15 was measured worse here (3 of 8 seeds solved within
+      150 generations against 6 of 8), because the re-speciation keeps the stuck champion species exempt anyway;
     - ``initial_compatibility_threshold=3``, species count target 4..6 (the original's pop/10 rule gives 13..15, too
       many small species for 150 genomes).
     """
@@ -52,7 +52,6 @@ def xor_settings(population_size: int = 150, **overrides: object) -> NeatSetting
         selection_proportion=0.2,
         weight_limit=3.0,
         weight_jiggle=0.3,
-        stagnation_generations=15,
         initial_compatibility_threshold=3.0,
         species_count_min=max(1, population_size // 30 - 1),
         species_count_max=max(1, population_size // 25),
