@@ -29,7 +29,13 @@ def corridor_route(world: World, poi: int, trunk_x: Optional[float] = None) -> l
 
 
 class WaypointTeam:
-    """Discrete actions that steer each robot along its waypoints (turn in place until aligned, then go)."""
+    """Discrete actions that steer each robot along its waypoints (turn in place until aligned, then go).
+
+    The signal picks the route: out to the POI without it, home with it (so an operator who clears a robot's
+    signal at home sends it back out, as in the sequential protocol).  It steers from the poses in `infos`.
+    """
+
+    uses_infos = True
 
     def __init__(self, world: World, agents: Sequence[str], assignment: Optional[Sequence[int]] = None,
                  tolerance: float = 2.0) -> None:
@@ -63,8 +69,8 @@ class WaypointTeam:
             if agent not in infos:
                 continue
             info = infos[agent]
-            if info["signal"] and not self.returning[agent]:
-                self.returning[agent] = True
+            if bool(info["signal"]) != self.returning[agent]:
+                self.returning[agent] = bool(info["signal"])
                 self.leg[agent] = 0
             route = self.routes_back[k] if self.returning[agent] else self.routes_out[k]
             x, y, _ = info["pose"]

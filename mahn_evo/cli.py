@@ -40,6 +40,9 @@ def _eval_parser(sub) -> None:
     p.add_argument("--noise", default="none", help="noise preset: none or generalization")
     for name in ("sensor-noise", "effector-noise", "heading-noise", "start-jitter-xy", "start-jitter-heading"):
         p.add_argument(f"--{name}", type=float, help="override one noise level (see TaskParams)")
+    p.add_argument("--protocol", default="training", choices=["training", "sequential"],
+                   help="training: all robots called at tick 690 (team fitness); sequential: the paper's "
+                        "real-world protocol, robots called one at a time, robots see and bump each other")
     p.add_argument("--video", type=Path, help="write a GIF of the (first) episode")
     p.add_argument("--plot", type=Path, help="write a PNG of the trajectories of the (first) episode")
     p.add_argument("--json", action="store_true", help="print the result as JSON")
@@ -152,6 +155,22 @@ def cmd_eval(args) -> int:
     params = task_params(args.noise, sensor_noise=args.sensor_noise, effector_noise=args.effector_noise,
                          heading_noise=args.heading_noise, start_jitter_xy=args.start_jitter_xy,
                          start_jitter_heading=args.start_jitter_heading)
+    if args.protocol == "sequential":
+        from mahn_envs.policy import ControllerPolicy
+
+        from .champion import Champion
+        from .protocols import sequential
+
+        champ = Champion.load(args.champion)
+        policy = ControllerPolicy(champ.controllers, [f"robot_{k}" for k in range(champ.controllers.n_robots)])
+        result = sequential(policy, map=args.map, params=params, episodes=args.episodes, seed=args.seed)
+        result.update(protocol="sequential", map=args.map, solved_fraction=float(sum(result["solved"])) /
+                      len(result["solved"]))
+        if args.json:
+            print(json.dumps(result, indent=1))
+        else:
+            print(f"sequential protocol on {args.map}: success {result['solved']}  stages {result['fitness']}")
+        return 0
     result = evaluate_champion(args.champion, map=args.map, engine=args.engine, episodes=args.episodes,
                                params=params, seed=args.seed, video=args.video)
     if args.plot:

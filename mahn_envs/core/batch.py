@@ -192,6 +192,11 @@ class BatchSim:
         self.rflag[episode, robot, T.F_SIGNAL] = 1 if on else 0
         self.obs[episode, robot, 6] = 1.0 if on else 0.0
 
+    def resense(self) -> None:
+        """Recompute sensing for the coming tick (after robots were moved by hand)."""
+        kernels.sense_all(self.tick + 1, self.pose, self.raw, self.obs, self.rflag, self._walls, self._boxes,
+                          self._dirs, self._pvec, self.seed, self.keys, self._others, self._cand)
+
     def team_fitness(self) -> tuple[np.ndarray, np.ndarray]:
         """Team fitness and `solved` of each episode as things stand (final once the episode is done)."""
         return self.prev_fit.copy(), self.solved.copy()

@@ -57,8 +57,9 @@ def network_action(b, r, obs, rflag_signal, wt_ih, wt_hh, wt_ho, b_h, b_o, hid, 
     n_brains = wt_ih.shape[2]
     n_hidden = wt_hh.shape[3]
     n_in = wt_ih.shape[3]
-    if n_brains == 2 and rflag_signal != 0 and brain[b, r] == 0:
-        brain[b, r] = 1
+    wanted = 1 if (n_brains == 2 and rflag_signal != 0) else 0
+    if wanted != brain[b, r]:  # switch brains (a cleared signal, in operator protocols, switches back)
+        brain[b, r] = wanted
         for i in range(n_hidden):
             hid[b, r, i] = 0.0
         for o in range(3):

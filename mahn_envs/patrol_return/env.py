@@ -192,6 +192,19 @@ class PatrolReturnEnv(ParallelEnv):
     def clear_signal(self, agent: str) -> None:
         self.sim.give_signal(0, self.agent_index[agent], False)
 
+    def place(self, agent: str, pose: "tuple[float, float, float]") -> np.ndarray:
+        """Move one robot by hand mid-episode (operator protocols); returns its fresh observation."""
+        k = self.agent_index[agent]
+        poses = self.sim.pose[0:1, :, :3].copy()
+        poses[0, k] = np.asarray(pose, dtype=np.float64)
+        from ..core import validate_poses
+
+        validate_poses(self.world, poses[0, k:k + 1], self.model.radius, 1)
+        self.sim.pose[0, k, :3] = poses[0, k]
+        self.sim.pose[0, k, T.V] = 0.0
+        self.sim.resense()
+        return self.sim.obs[0, k].copy()
+
     # -------------------------------------------------------------- global state, rendering
     def state(self) -> np.ndarray:
         """(x, y, heading, signal) of every robot, robot-major."""

@@ -1,0 +1,175 @@
+"""Transfer-test protocols: how a team is scored beyond its training episode.
+
+- `training`: the simulation protocol (all robots called at the signal tick, robots apart): the team fitness.
+- `sequential`: the paper's real-world protocol in simulation, with robots that see and bump into each other
+  (pymunk engine).  Once all robots have stopped at their posts, they are called home one at a time in the
+  order they left; a robot that reaches home has its signal cleared and is placed at home facing the arena,
+  and must go back out to its post; then the next one is called.  Success = every robot reached its own
+  post, returned home on its call and went back out.
+
+A policy is anything with `reset()` and `act({agent: obs}) -> {agent: action}` (ControllerPolicy, the RL
+baselines' SB3TeamPolicy); a policy with `uses_infos = True` (the scripted team) is given the infos instead.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, field
+from typing import Any, Optional
+
+import numpy as np
+
+from mahn_envs import patrol_return_v0
+from mahn_envs.core import TaskParams
+
+HOME_REACHED = 20.0  # Manhattan, as the fitness's reachGoal
+POST_REACHED = 15.0  # Manhattan, as the fitness's allClose
+
+
+@dataclass
+class SequentialSettings:
+    """Timing of the sequential protocol (ticks of 33 ms) and what counts as stopped."""
+
+    patrol_ticks: int = 1364  # longest wait for every robot to stop at a post
+    min_patrol_ticks: int = 150
+    return_ticks: int = 1500  # longest wait for a called robot to reach home
+    out_ticks: int = 1500  # longest wait for it to be back at its post
+    stop_window: int = 30  # a robot is stopped when it moved less than stop_distance over this many ticks
+    stop_distance: float = 1.0
+    left_distance: float = 5.0  # a robot "left" when it first got this far from its start
+
+
+@dataclass
+class RobotRecord:
+    agent: str
+    left_tick: Optional[int] = None
+    post: Optional[int] = None  # POI index it stopped at
+    reached_post: bool = False
+    returned_home: bool = False
+    went_back_out: bool = False
+
+
+@dataclass
+class SequentialResult:
+    success: bool
+    stages_completed: int
+    robots: list[RobotRecord] = field(default_factory=list)
+    ticks: int = 0
+    trajectory: Optional[np.ndarray] = None  # (T, R, 3)
+
+    @property
+    def score(self) -> float:
+        return self.stages_completed / (3 * max(1, len(self.robots)))
+
+    def to_dict(self) -> dict[str, Any]:
+        d = {"success": self.success, "stages_completed": self.stages_completed, "score": self.score,
+             "ticks": self.ticks, "robots": [asdict(r) for r in self.robots]}
+        return d
+
+
+def _manhattan(p, q) -> float:
+    return abs(p[0] - q[0]) + abs(p[1] - q[1])
+
+
+class _Runner:
+    def __init__(self, policy, env, settings: SequentialSettings, record: bool) -> None:
+        self.policy, self.env, self.s = policy, env, settings
+        self.obs: dict = {}
+        self.infos: dict = {}
+        self.history: list[list[tuple[float, float, float]]] = []
+        self.record = record
+
+    def poses(self) -> list[tuple[float, float, float]]:
+        return [self.infos[a]["pose"] for a in self.env.possible_agents]
+
+    def tick(self) -> None:
+        src = self.infos if getattr(self.policy, "uses_infos", False) else self.obs
+        self.obs, _, _, _, self.infos = self.env.step(self.policy.act(src))
+        self.history.append(self.poses())
+
+    def stopped(self, k: int) -> bool:
+        w = self.s.stop_window
+        if len(self.history) <= w:
+            return False
+        a, b = self.history[-1 - w][k], self.history[-1][k]
+        return math.hypot(a[0] - b[0], a[1] - b[1]) < self.s.stop_distance
+
+
+def sequential_episode(policy, map: str = "plus", params: Optional[TaskParams] = None, seed: int = 0,
+                       settings: Optional[SequentialSettings] = None, record: bool = False) -> SequentialResult:
+    s = settings or SequentialSettings()
+    params = params or TaskParams()
+    total = s.patrol_ticks + 3 * (s.return_ticks + s.out_ticks) + 10
+    kw = {k: v for k, v in params.to_dict().items()
+          if k not in ("max_cycles", "signal_tick", "sample_period", "auto_signal", "robots_see_each_other")}
+    env = patrol_return_v0.parallel_env(map=map, engine="pymunk", robots_collide=True, robots_see_each_other=True,
+                                        auto_signal=False, max_cycles=total, signal_tick=total - total % 30, **kw)
+    run = _Runner(policy, env, s, record)
+    run.obs, run.infos = env.reset(seed=seed)
+    policy.reset()
+    agents = env.possible_agents
+    starts = run.poses()
+    records = [RobotRecord(a) for a in agents]
+    world = env.world
+    home = (float(world.home[0]), float(world.home[1]))
+
+    def note_departures(t: int) -> None:
+        for k, rec in enumerate(records):
+            p = run.history[-1][k]
+            if rec.left_tick is None and math.hypot(p[0] - starts[k][0], p[1] - starts[k][1]) > s.left_distance:
+                rec.left_tick = t
+
+    # 1. patrol until everyone has stopped (or time is up)
+    for t in range(1, s.patrol_ticks + 1):
+        run.tick()
+        note_departures(t)
+        if t >= s.min_patrol_ticks and all(run.stopped(k) for k in range(len(agents))):
+            break
+    for k, rec in enumerate(records):
+        p = run.history[-1][k]
+        d = [_manhattan(p, q) for q in world.pois]
+        rec.post = int(np.argmin(d))
+        rec.reached_post = bool(d[rec.post] < POST_REACHED)
+    posts = [r.post for r in records if r.reached_post]
+    if len(set(posts)) != len(posts):  # two robots at one post: only the first keeps it
+        seen: set[int] = set()
+        for r in records:
+            if r.reached_post and r.post in seen:
+                r.reached_post = False
+            seen.add(r.post)
+    # 2. call robots home one at a time, in the order they left
+    order = sorted(range(len(agents)), key=lambda k: (records[k].left_tick is None, records[k].left_tick or 0, k))
+    for k in order:
+        rec, agent = records[k], agents[k]
+        env.call_home(agent)
+        for _ in range(s.return_ticks):
+            run.tick()
+            if _manhattan(run.history[-1][k], home) <= HOME_REACHED:
+                rec.returned_home = True
+                break
+        env.clear_signal(agent)
+        if not rec.returned_home:
+            continue
+        try:  # placed at home facing the arena; the robot's controller restarts its patrol brain
+            env.place(agent, (home[0], home[1], math.pi / 2))
+        except ValueError:
+            pass  # home blocked by the walls of a user map: leave it where it is
+        run.obs[agent] = env.sim.obs[0, k].copy()
+        for _ in range(s.out_ticks):
+            run.tick()
+            if rec.post is not None and run.stopped(k) and \
+                    _manhattan(run.history[-1][k], world.pois[rec.post]) < POST_REACHED:
+                rec.went_back_out = True
+                break
+    stages = sum(int(r.reached_post) + int(r.returned_home) + int(r.went_back_out) for r in records)
+    success = all(r.reached_post and r.returned_home and r.went_back_out for r in records)
+    env.close()
+    return SequentialResult(success, stages, records, len(run.history),
+                            np.asarray(run.history) if record else None)
+
+
+def sequential(policy, map: str = "plus", params: Optional[TaskParams] = None, episodes: int = 1, seed: int = 0,
+               settings: Optional[SequentialSettings] = None) -> dict[str, Any]:
+    """Per-episode results of the sequential protocol.  `fitness` is the fraction of stages completed."""
+    results = [sequential_episode(policy, map, params, seed + e, settings) for e in range(episodes)]
+    return {"fitness": [r.score for r in results], "solved": [r.success for r in results],
+            "episodes": [r.to_dict() for r in results]}

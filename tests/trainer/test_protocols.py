@@ -1,0 +1,62 @@
+"""The sequential (real-world) protocol in simulation: robots see and bump each other, called one at a time."""
+import json
+
+import numpy as np
+import pytest
+
+from mahn_envs import load_map
+from mahn_envs.policy import ControllerPolicy
+from mahn_envs.scripted import WaypointTeam
+from mahn_evo.cli import main
+from mahn_evo.protocols import SequentialSettings, sequential, sequential_episode
+
+AGENTS = ["robot_0", "robot_1", "robot_2"]
+
+
+@pytest.mark.parametrize("map_name", ["plus", "asymmetric_plus"])
+def test_scripted_team_passes_the_sequential_protocol(map_name):
+    res = sequential_episode(WaypointTeam(load_map(map_name), AGENTS), map=map_name, record=True)
+    assert res.success and res.stages_completed == 9
+    assert sorted(r.post for r in res.robots) == [0, 1, 2]
+    assert [r.left_tick is not None for r in res.robots] == [True] * 3
+    home = load_map(map_name).home
+    # each robot was at home at some point after the patrol phase
+    for k in range(3):
+        assert np.abs(res.trajectory[:, k, :2] - home).sum(axis=1).min() <= 20
+
+
+class AlwaysForward:
+    def reset(self):
+        pass
+
+    def act(self, obs):
+        return {a: 1 for a in obs}
+
+
+def test_a_team_that_never_patrols_fails():
+    res = sequential_episode(AlwaysForward(), settings=SequentialSettings(return_ticks=300, out_ticks=300))
+    assert not res.success and res.stages_completed < 9
+    out = sequential(AlwaysForward(), episodes=2, settings=SequentialSettings(return_ticks=200, out_ticks=200))
+    assert out["solved"] == [False, False] and len(out["fitness"]) == 2
+
+
+def test_situational_controller_restarts_patrol_brain_when_signal_cleared():
+    from tests.envs.helpers import random_team
+
+    pol = ControllerPolicy(random_team(0, n_brains=2), AGENTS)
+    obs = {a: np.ones(7, np.float32) for a in AGENTS}
+    pol.act(obs)
+    assert pol._brain[0].tolist() == [1, 1, 1]
+    obs = {a: np.ones(7, np.float32) * np.array([1, 1, 1, 1, 1, 1, 0], np.float32) for a in AGENTS}
+    pol.act(obs)
+    assert pol._brain[0].tolist() == [0, 0, 0]
+
+
+def test_cli_sequential(tmp_path, capsys):
+    from mahn_evo.config import TrainConfig
+    from mahn_evo.trainer import train
+
+    train(TrainConfig(generations=1, seed=0).with_overrides(pop=10), tmp_path)
+    assert main(["eval", str(tmp_path / "champion.json"), "--protocol", "sequential", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["protocol"] == "sequential" and len(out["solved"]) == 1
