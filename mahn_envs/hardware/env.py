@@ -572,22 +572,11 @@ class KheperaHardwareEnv(ParallelEnv):
         return s.astype(np.float32).reshape(-1)
 
     def render(self):
-        if self.render_mode is None:
-            import gymnasium
+        from ..patrol_return.rendering import render_env
 
-            gymnasium.logger.warn("render() called without a render_mode; pass render_mode='rgb_array' or 'human'")
-            return None
-        if self._renderer is None:
-            from ..patrol_return.rendering import Renderer
-
-            self._renderer = Renderer(self.world, self.render_mode, fps=self.metadata["render_fps"])
         rays = np.minimum(self.model.radius + self._q * self.model.ir_range, self.model.sensor_range)
-        self._renderer.draw(self._pose[0, :, :3], rays, self._rflag[0, :, T.F_SIGNAL].astype(bool),
-                            np.asarray(self.model.sensor_angles), self.model.radius, self._tick, self._fitness)
-        if self.render_mode == "rgb_array":
-            return self._renderer.rgb()
-        self._renderer.show()
-        return None
+        return render_env(self, self._pose[0, :, :3], rays, self._rflag[0, :, T.F_SIGNAL].astype(bool), self._tick,
+                          self._fitness)
 
 
 __all__ = ["KheperaHardwareEnv", "prompt_placement", "HardwareError"]

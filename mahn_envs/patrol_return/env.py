@@ -212,22 +212,11 @@ class PatrolReturnEnv(ParallelEnv):
         return s.astype(np.float32).reshape(-1)
 
     def render(self):
-        if self.render_mode is None:
-            import gymnasium
+        from .rendering import render_env
 
-            gymnasium.logger.warn("render() called without a render_mode; pass render_mode='rgb_array' or 'human'")
-            return None
-        if self._renderer is None:
-            from .rendering import Renderer
-
-            self._renderer = Renderer(self.world, self.render_mode, fps=self.metadata["render_fps"])
         sim = self.sim
-        self._renderer.draw(sim.pose[0, :, :3], sim.raw[0], sim.rflag[0, :, T.F_SIGNAL].astype(bool),
-                            np.asarray(self.model.sensor_angles), self.model.radius, sim.tick, float(sim.prev_fit[0]))
-        if self.render_mode == "rgb_array":
-            return self._renderer.rgb()
-        self._renderer.show()
-        return None
+        return render_env(self, sim.pose[0, :, :3], sim.raw[0], sim.rflag[0, :, T.F_SIGNAL].astype(bool), sim.tick,
+                          float(sim.prev_fit[0]))
 
     def close(self) -> None:
         if self._renderer is not None:

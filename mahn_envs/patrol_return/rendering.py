@@ -100,3 +100,23 @@ class Renderer:
         if self.window is not None:
             self.pygame.display.quit()
             self.window = None
+
+
+def render_env(env, poses: np.ndarray, rays: Optional[np.ndarray], signals: np.ndarray, tick: int,
+               fitness: float):
+    """The `render()` of every env of the task (simulated or hardware): one picture, one code path.
+
+    `env` needs `render_mode`, `world`, `model`, `metadata` and a `_renderer` slot (created on first use).
+    """
+    if env.render_mode is None:
+        import gymnasium
+
+        gymnasium.logger.warn("render() called without a render_mode; pass render_mode='rgb_array' or 'human'")
+        return None
+    if env._renderer is None:
+        env._renderer = Renderer(env.world, env.render_mode, fps=env.metadata["render_fps"])
+    env._renderer.draw(poses, rays, signals, np.asarray(env.model.sensor_angles), env.model.radius, tick, fitness)
+    if env.render_mode == "rgb_array":
+        return env._renderer.rgb()
+    env._renderer.show()
+    return None
