@@ -46,15 +46,9 @@ class DeployResult:
 
 def load_team(path: "str | Path") -> tuple[TeamControllers, dict[str, Any]]:
     """The controllers of a champion file (``{"controllers": {...}}``) or of a bare controllers file."""
-    path = Path(path)
-    if not path.exists():
-        raise ValueError(f"champion file {str(path)!r} does not exist")
-    try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except json.JSONDecodeError as exc:
-        raise ValueError(f"champion file {str(path)!r} is not valid JSON: {exc}") from exc
-    if not isinstance(data, dict):
-        raise ValueError(f"champion file {str(path)!r} must hold a JSON object")
+    from .files import read_json_object
+
+    data = read_json_object(path, "champion")
     ctrl = data.get("controllers", data if "w_ih" in data else None)
     if not isinstance(ctrl, dict):
         raise ValueError(f"champion file {str(path)!r} has no 'controllers' object")

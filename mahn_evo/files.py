@@ -56,18 +56,28 @@ def atomic_write_csv(path: "str | Path", header: Sequence[str], rows: Iterable[S
     atomic_write_text(path, buf.getvalue())
 
 
-def read_versioned_json(path: "str | Path", kind: str) -> dict[str, Any]:
-    """Load a file we wrote; a wrong kind, a newer/older version or corrupt JSON is a ValueError naming it."""
+def read_json_object(path: "str | Path", what: str) -> dict[str, Any]:
+    """A JSON object from a file; a missing file, corrupt JSON or another top level is a ValueError naming it."""
     path = Path(path)
     if not path.exists():
-        raise ValueError(f"{kind} file {str(path)!r} does not exist")
+        raise ValueError(f"{what} file {str(path)!r} does not exist")
     try:
         data = json.loads(path.read_text(encoding="utf-8"))
     except json.JSONDecodeError as exc:
-        raise ValueError(f"{kind} file {str(path)!r} is corrupt (not valid JSON: {exc})") from exc
-    if not isinstance(data, dict) or data.get("kind") != kind:
-        found = data.get("kind") if isinstance(data, dict) else type(data).__name__
-        raise ValueError(f"{str(path)!r} is not a mahn {kind} file (kind={found!r})")
+        raise ValueError(f"{what} file {str(path)!r} is corrupt (not valid JSON: {exc})") from exc
+    if not isinstance(data, dict):
+        raise ValueError(f"{what} file {str(path)!r} must hold a JSON object")
+    return data
+
+
+def read_versioned_json(path: "str | Path", kind: str) -> dict[str, Any]:
+    """Load a file we wrote; a wrong kind, a newer/older version or corrupt JSON is a ValueError naming it."""
+    return check_versioned(read_json_object(path, kind), path, kind)
+
+
+def check_versioned(data: dict[str, Any], path: "str | Path", kind: str) -> dict[str, Any]:
+    if data.get("kind") != kind:
+        raise ValueError(f"{str(path)!r} is not a mahn {kind} file (kind={data.get('kind')!r})")
     version = data.get("version")
     if version != FORMAT_VERSION:
         raise ValueError(f"{kind} file {str(path)!r} has format version {version!r}; this mahn reads version "

@@ -37,7 +37,7 @@ from ..core import task as T
 from ..core.params import TaskParams
 from ..khepera import DEFAULT_MODEL, KheperaModel
 from ..maps import World, load_map
-from ..patrol_return.env import agent_names, coerce_action, policy_coordinate
+from ..patrol_return.env import agent_names, coerce_action, policy_coordinate, task_spaces
 from . import protocol as P
 from .calibration import make_calibration
 from .clock import RealClock
@@ -150,14 +150,9 @@ class KheperaHardwareEnv(ParallelEnv):
                                         reconnects=min(1, self.retry.reconnects))
         self.render_mode = render_mode
         self._renderer = None
-        self._obs_space = spaces.Box(0.0, 1.0, (7,), np.float32)
-        self._act_space = spaces.Discrete(3)
+        self._obs_space, self._act_space, self.state_space = task_spaces(self.world, n)
         self.observation_spaces = {a: self._obs_space for a in self.possible_agents}
         self.action_spaces = {a: self._act_space for a in self.possible_agents}
-        xmin, ymin, xmax, ymax = self.world.bounds
-        lo = np.tile(np.array([xmin, ymin, -np.inf, 0.0], dtype=np.float32), n)
-        hi = np.tile(np.array([xmax, ymax, np.inf, 1.0], dtype=np.float32), n)
-        self.state_space = spaces.Box(lo, hi, dtype=np.float32)
         # per-episode state
         self._q = np.ones((n, 6))  # un-floored calibrated readings the agents last saw (the reflex uses them)
         self._raw = np.zeros((n, 11), dtype=np.int64)

@@ -44,6 +44,18 @@ def coerce_action(agent: str, value: Any) -> int:
     return v
 
 
+def task_spaces(world: World, n: int) -> tuple[spaces.Box, spaces.Discrete, spaces.Box]:
+    """The public contract's spaces, shared by the simulated and the hardware env.
+
+    Observation Box(0, 1, (7,)) per agent, action Discrete(3) per agent, and the global state
+    (x, y, heading, signal) of each of the n robots, robot-major.
+    """
+    xmin, ymin, xmax, ymax = world.bounds
+    lo = np.tile(np.array([xmin, ymin, -np.inf, 0.0], dtype=np.float32), n)
+    hi = np.tile(np.array([xmax, ymax, np.inf, 1.0], dtype=np.float32), n)
+    return spaces.Box(0.0, 1.0, (7,), np.float32), spaces.Discrete(3), spaces.Box(lo, hi, dtype=np.float32)
+
+
 class PatrolReturnEnv(ParallelEnv):
     """Khepera III robots patrol the arms of a plus maze, then come home when signalled.
 
@@ -80,14 +92,9 @@ class PatrolReturnEnv(ParallelEnv):
         self.agents: list[str] = []
         self.agent_index = {a: k for k, a in enumerate(self.possible_agents)}
         self.policy_coordinates = {a: policy_coordinate(k, n) for k, a in enumerate(self.possible_agents)}
-        self._obs_space = spaces.Box(0.0, 1.0, (7,), np.float32)
-        self._act_space = spaces.Discrete(3)
+        self._obs_space, self._act_space, self.state_space = task_spaces(self.world, n)
         self._obs_spaces = {a: self._obs_space for a in self.possible_agents}
         self._act_spaces = {a: self._act_space for a in self.possible_agents}
-        xmin, ymin, xmax, ymax = self.world.bounds
-        lo = np.tile(np.array([xmin, ymin, -np.inf, 0.0], dtype=np.float32), n)
-        hi = np.tile(np.array([xmax, ymax, np.inf, 1.0], dtype=np.float32), n)
-        self.state_space = spaces.Box(lo, hi, dtype=np.float32)
         self._actions = np.zeros(n, dtype=np.int64)
         self._renderer = None
         self._seed_rng = np.random.default_rng()
