@@ -23,6 +23,9 @@ def _train_parser(sub) -> None:
     p.add_argument("--evaluate-modules", action="store_true", default=None,
                    help="evaluate the seed's Multiply modules (the 'intended behaviour' ablation)")
     p.add_argument("--stop-when-solved", action="store_true", default=None, help="stop at the first solution")
+    p.add_argument("--after-solved", type=int, metavar="G",
+                   help="with --stop-when-solved, run G more generations so the archive gathers alternative "
+                        "solutions for the generalisation test (default 0)")
     p.add_argument("--config", type=Path, help="TOML or JSON file with TrainConfig fields (flags override it)")
     p.add_argument("--out", type=Path, default=Path("runs/latest"), help="run folder (default runs/latest)")
     p.add_argument("--resume", action="store_true", help="continue the run in --out from its checkpoint")
@@ -56,6 +59,68 @@ def _generalize_parser(sub) -> None:
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--noise", default="generalization", help="noise preset (default generalization)")
     p.add_argument("--json", action="store_true")
+
+
+def _experiment_parser(sub) -> None:
+    from .experiment.backends import BACKENDS
+    from .experiment.plan import ExperimentPlan
+
+    d = ExperimentPlan()
+    p = sub.add_parser("experiment", help="the paper's table: seeded runs per mode, generalisation, transfer, figures")
+    p.add_argument("--modes", nargs="+", default=list(d.modes), choices=MODES)
+    p.add_argument("--runs", type=int, default=d.runs, help=f"runs per mode (default {d.runs}, as the paper)")
+    p.add_argument("--seed", type=int, default=d.seed, help="run i of each mode uses seed+i (default %(default)s)")
+    p.add_argument("--generations", type=int, default=d.generations, help="at most (default %(default)s)")
+    p.add_argument("--pop", type=int, default=d.population, help="population (default %(default)s)")
+    p.add_argument("--init", choices=INITS, default=d.init, help="initial population (default %(default)s)")
+    p.add_argument("--evaluate-modules", action="store_true", help="evaluate the seed's Multiply modules")
+    p.add_argument("--map", default=d.map, help="training map (default %(default)s)")
+    p.add_argument("--after-solved", type=int, default=d.after_solved,
+                   help="generations a run continues after its first solution, so the generalisation test has "
+                        "alternatives to choose from (default %(default)s)")
+    p.add_argument("--top", type=int, default=d.top, help="most general solutions per mode to transfer "
+                                                          "(default %(default)s, as the paper)")
+    p.add_argument("--general-episodes", type=int, default=d.general_episodes,
+                   help="noisy episodes of the generalisation test (default %(default)s)")
+    p.add_argument("--transfer-episodes", type=int, default=d.transfer_episodes,
+                   help="noisy episodes per transfer test (default %(default)s)")
+    p.add_argument("--max-cycles", type=int, default=d.max_cycles, help=argparse.SUPPRESS)
+    p.add_argument("--signal-tick", type=int, default=d.signal_tick, help=argparse.SUPPRESS)
+    p.add_argument("--config", type=Path, help="TOML or JSON file whose `neat` table overrides NEAT settings")
+    p.add_argument("--out", type=Path, default=Path("runs/experiment"), help="experiment folder")
+    p.add_argument("--backend", choices=BACKENDS, default="local",
+                   help="local processes (default) or a Ray cluster; same results for the same seeds")
+    p.add_argument("--address", help="Ray cluster address (default: start a local Ray instance)")
+    p.add_argument("--workers", type=int, default=2, help="runs at a time (default %(default)s)")
+    p.add_argument("--no-analysis", action="store_true", help="only run the runs")
+    p.add_argument("--report-only", action="store_true",
+                   help="start no runs: write the results of the runs finished so far (e.g. while the experiment "
+                        "runs in another shell)")
+
+
+def cmd_experiment(args) -> int:
+    from .experiment.plan import ExperimentPlan
+    from .experiment.runner import run_experiment
+
+    neat = {}
+    if args.config:
+        neat = {k: v for k, v in load_config_file(args.config).neat.to_dict().items()
+                if v != TrainConfig().neat.to_dict().get(k)}
+    plan = ExperimentPlan(modes=tuple(args.modes), runs=args.runs, seed=args.seed, generations=args.generations,
+                          population=args.pop, init=args.init, evaluate_modules=args.evaluate_modules, map=args.map,
+                          after_solved=args.after_solved, top=args.top, general_episodes=args.general_episodes,
+                          transfer_episodes=args.transfer_episodes, max_cycles=args.max_cycles,
+                          signal_tick=args.signal_tick, neat=neat)
+    try:
+        results = run_experiment(plan, args.out, backend=args.backend, workers=args.workers, address=args.address,
+                                 analyse=not args.no_analysis, run=not args.report_only,
+                                 log=lambda m: print(m, flush=True))
+    except KeyboardInterrupt:
+        print(f"\ninterrupted; run the same command again to resume ({args.out})", file=sys.stderr)
+        return 130
+    if results:
+        print(f"results: {args.out / 'results.md'}")
+    return 0
 
 
 def cmd_generalize(args) -> int:
@@ -104,7 +169,7 @@ def cmd_train(args) -> int:
     base = load_config_file(args.config) if args.config else TrainConfig()
     overrides = dict(mode=args.mode, generations=args.generations, pop=args.pop, seed=args.seed, init=args.init,
                      map=args.map, episodes=args.episodes, evaluate_modules=args.evaluate_modules,
-                     stop_when_solved=args.stop_when_solved)
+                     stop_when_solved=args.stop_when_solved, after_solved=args.after_solved)
     if args.resume and (args.out / "config.json").exists() and not args.config:
         from .files import read_versioned_json
 
@@ -189,6 +254,7 @@ def build_parser() -> argparse.ArgumentParser:
     _train_parser(sub)
     _eval_parser(sub)
     _generalize_parser(sub)
+    _experiment_parser(sub)
     try:
         from .deploy import add_deploy_parser
     except ImportError:
@@ -208,8 +274,10 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
             return cmd_eval(args)
         if args.command == "generalize":
             return cmd_generalize(args)
+        if args.command == "experiment":
+            return cmd_experiment(args)
         return int(args.func(args) or 0)
-    except ValueError as exc:
+    except (ValueError, RuntimeError) as exc:
         print(f"mahn-evo: error: {exc}", file=sys.stderr)
         return 2
 

@@ -31,6 +31,9 @@ class TrainConfig:
     evaluate_modules: bool = False
     episodes: int = 1
     stop_when_solved: bool = False
+    #: with stop_when_solved, generations still run after the first solution so the archive gathers the
+    #: alternative solutions the generalisation test chooses among (0 = stop at once)
+    after_solved: int = 0
     checkpoint_every: int = 1
     neat: NeatSettings = field(default_factory=NeatSettings)
     task: TaskParams = field(default_factory=TaskParams)
@@ -44,6 +47,8 @@ class TrainConfig:
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, int) or v < 1:
                 raise ValueError(f"{name} must be a positive integer, got {v!r}")
+        if isinstance(self.after_solved, bool) or not isinstance(self.after_solved, int) or self.after_solved < 0:
+            raise ValueError(f"after_solved must be a non-negative integer, got {self.after_solved!r}")
         if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
             raise ValueError(f"seed must be a non-negative integer, got {self.seed!r}")
 

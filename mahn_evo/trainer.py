@@ -29,6 +29,9 @@ from .files import atomic_write_csv, atomic_write_json, read_versioned_json, ver
 from .neat.genome import Genome
 from .neat.population import Population
 
+#: settings that only decide when a run ends; they may change when a run is resumed (e.g. more generations)
+STOPPING_RULES = ("generations", "stop_when_solved", "after_solved")
+
 LOG_HEADER = ["generation", "evaluations", "best_fitness", "mean_fitness", "best_ever", "solved", "n_solved",
               "n_species", "threshold", "mean_complexity", "seconds"]
 
@@ -76,10 +79,13 @@ class Trainer:
         data = read_versioned_json(ckpt, "checkpoint")
         saved = data["config"]
         asked = self.config.to_dict()
-        differing = sorted(k for k in asked if k != "generations" and saved.get(k) != asked[k])
+        defaults = TrainConfig().to_dict()  # keys added after a checkpoint was written keep their defaults
+        differing = sorted(k for k in asked if k not in STOPPING_RULES and saved.get(k, defaults[k]) != asked[k])
         if differing:
             raise ValueError(f"cannot resume {str(self.out)!r}: configuration differs in {differing} "
-                             "(only --generations may change on resume)")
+                             f"(only the stopping rules {list(STOPPING_RULES)} may change on resume)")
+        if any(saved.get(k, defaults[k]) != asked[k] for k in STOPPING_RULES):
+            atomic_write_json(self.out / "config.json", versioned("config", asked))
         self.population = Population.from_dict(data["population"])
         t = data["trainer"]
         self.best_fitness = -np.inf if t["best_fitness"] is None else float(t["best_fitness"])
@@ -151,7 +157,8 @@ class Trainer:
     def done(self) -> bool:
         if self.generation >= self.config.generations:
             return True
-        return self.config.stop_when_solved and self.first_solved is not None
+        return self.config.stop_when_solved and self.first_solved is not None and \
+            self.generation > self.first_solved + self.config.after_solved
 
     def run(self, on_generation: Optional[Callable[[Progress], None]] = None) -> dict:
         while not self.done():

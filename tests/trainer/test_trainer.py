@@ -119,3 +119,21 @@ def test_evolution_makes_progress():
         rows = t.rows
     first, last = rows[0][2], max(r[4] for r in rows)
     assert last > first + 0.2, (first, last)
+
+
+def test_after_solved_keeps_running_and_may_change_on_resume(tmp_path):
+    t = Trainer(small(generations=50, stop_when_solved=True, after_solved=2), tmp_path / "r")
+    t.step()
+    t.first_solved = 0  # as if generation 0 had held a solution
+    assert not t.done()
+    t.step()
+    t.step()
+    assert t.done() and t.generation == 3  # generations 0..2: the solution's and two more
+    t.finish()
+    resumed = Trainer(small(generations=50, stop_when_solved=True, after_solved=5), tmp_path / "r", resume=True)
+    assert resumed.generation == 3 and not resumed.done()
+    assert json.loads((tmp_path / "r" / "config.json").read_text())["after_solved"] == 5
+    with pytest.raises(ValueError, match="seed"):
+        Trainer(small(generations=50, seed=9, stop_when_solved=True), tmp_path / "r", resume=True)
+    with pytest.raises(ValueError, match="after_solved"):
+        small(after_solved=-1)

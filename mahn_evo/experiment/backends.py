@@ -1,0 +1,139 @@
+"""Where the independent runs of an experiment execute: local processes (default) or a Ray cluster.
+
+A run is a pure function of its TrainConfig, so both backends give bit-identical run folders for the same
+seeds; the backend only decides where the work happens.  Every run checkpoints each generation, so an
+interrupted experiment (Ctrl-C, a lost node) loses at most one generation per run when it is started again.
+
+With Ray on more than one machine the experiment folder must be on a file system every node sees (NFS, a
+mounted bucket): the runs write their files there, as they do locally.
+"""
+from __future__ import annotations
+
+import os
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from multiprocessing import get_context
+from pathlib import Path
+from typing import Any, Callable, Optional, Sequence
+
+BACKENDS = ("local", "ray")
+
+Task = tuple[str, dict[str, Any], str]  # (run name, TrainConfig dict, run folder)
+
+
+def run_one(config: dict[str, Any], run_dir: str, threads: int = 1) -> dict[str, Any]:
+    """Run (or finish, or just read) one training run; returns its summary."""
+    import json
+
+    import numba
+
+    from ..config import TrainConfig
+    from ..trainer import Trainer
+
+    numba.set_num_threads(max(1, min(threads, numba.config.NUMBA_NUM_THREADS)))
+    cfg = TrainConfig.from_mapping(config)
+    out = Path(run_dir)
+    resume = (out / "checkpoint.json").exists()
+    trainer = Trainer(cfg, out, resume=resume)
+    if resume and trainer.done() and (out / "summary.json").exists():
+        summary = json.loads((out / "summary.json").read_text())
+        if summary.get("generations") == trainer.generation:
+            return summary
+    return trainer.run()
+
+
+def _threads_per_run(workers: int) -> int:
+    return max(1, (os.cpu_count() or 1) // max(1, workers))
+
+
+def run_local(tasks: Sequence[Task], workers: int, on_done: Optional[Callable[[str, dict], None]] = None
+              ) -> dict[str, dict[str, Any]]:
+    """Runs in `workers` fresh processes (spawned: numba's thread pools do not survive a fork)."""
+    threads = _threads_per_run(workers)
+    results: dict[str, dict[str, Any]] = {}
+    errors: dict[str, str] = {}
+    if workers <= 1:
+        for name, cfg, folder in tasks:
+            try:
+                results[name] = run_one(cfg, folder, threads)
+            except Exception as exc:  # keep going: the other runs are independent
+                errors[name] = f"{type(exc).__name__}: {exc}"
+                continue
+            if on_done:
+                on_done(name, results[name])
+    else:
+        with ProcessPoolExecutor(max_workers=workers, mp_context=get_context("spawn")) as pool:
+            pending = {pool.submit(run_one, cfg, folder, threads): name for name, cfg, folder in tasks}
+            try:
+                while pending:
+                    done, _ = wait(pending, return_when=FIRST_COMPLETED)
+                    for fut in done:
+                        name = pending.pop(fut)
+                        try:
+                            results[name] = fut.result()
+                        except Exception as exc:
+                            errors[name] = f"{type(exc).__name__}: {exc}"
+                            continue
+                        if on_done:
+                            on_done(name, results[name])
+            except KeyboardInterrupt:
+                pool.shutdown(wait=False, cancel_futures=True)
+                raise
+    _raise_errors(errors)
+    return results
+
+
+def run_ray(tasks: Sequence[Task], workers: int, address: Optional[str] = None,
+            on_done: Optional[Callable[[str, dict], None]] = None) -> dict[str, dict[str, Any]]:
+    """Runs as Ray tasks: on a running cluster (`address`) or on a local Ray instance of `workers` CPUs."""
+    try:
+        import ray
+    except ImportError as exc:
+        raise ValueError("the ray backend needs Ray: pip install 'mahn[distributed]'") from exc
+    started_here = not ray.is_initialized()
+    if started_here:
+        if address:
+            ray.init(address=address, include_dashboard=False, log_to_driver=False)
+        else:
+            ray.init(num_cpus=max(1, workers), include_dashboard=False, log_to_driver=False)
+    threads = 1 if address else _threads_per_run(workers)
+    remote = ray.remote(num_cpus=threads, max_retries=2)(run_one)
+    refs = {remote.remote(cfg, str(Path(folder).resolve()), threads): name for name, cfg, folder in tasks}
+    results: dict[str, dict[str, Any]] = {}
+    errors: dict[str, str] = {}
+    try:
+        while refs:
+            ready, _ = ray.wait(list(refs), num_returns=1)
+            for ref in ready:
+                name = refs.pop(ref)
+                try:
+                    results[name] = ray.get(ref)
+                except Exception as exc:
+                    errors[name] = f"{type(exc).__name__}: {exc}"
+                    continue
+                if on_done:
+                    on_done(name, results[name])
+    finally:
+        for ref in refs:
+            ray.cancel(ref, force=True)
+        if started_here:
+            ray.shutdown()
+    _raise_errors(errors)
+    return results
+
+
+def _raise_errors(errors: dict[str, str]) -> None:
+    if errors:
+        lines = "; ".join(f"{k}: {v}" for k, v in sorted(errors.items()))
+        raise RuntimeError(f"{len(errors)} run(s) failed (the others are saved; run the command again to retry "
+                           f"them): {lines}")
+
+
+def run_tasks(tasks: Sequence[Task], backend: str = "local", workers: int = 2, address: Optional[str] = None,
+              on_done: Optional[Callable[[str, dict], None]] = None) -> dict[str, dict[str, Any]]:
+    if backend not in BACKENDS:
+        raise ValueError(f"backend must be one of {BACKENDS}, got {backend!r}")
+    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
+        raise ValueError(f"workers must be a positive integer, got {workers!r}")
+    if backend == "ray":
+        return run_ray(tasks, workers, address, on_done)
+    return run_local(tasks, workers, on_done)

@@ -1,0 +1,111 @@
+"""What an experiment is: which modes, how many seeded runs, at what scale, and where each run lives.
+
+The plan is saved as `experiment.json` in the experiment folder.  Re-running the command with the same plan
+resumes: finished runs are kept, interrupted runs continue from their checkpoints, missing runs start.  A plan
+that differs from the saved one is refused (naming the fields), because mixing runs of two plans would make
+the table meaningless.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field, fields
+from pathlib import Path
+from typing import Any, Mapping
+
+from ..config import INITS, TrainConfig
+from ..files import atomic_write_json, read_versioned_json, versioned
+from ..substrate import MODES
+
+PLAN_FILE = "experiment.json"
+
+
+@dataclass(frozen=True)
+class ExperimentPlan:
+    modes: tuple[str, ...] = ("situational", "standard")
+    runs: int = 15
+    seed: int = 1  # run i of every mode uses seed + i (paired seeds across modes)
+    generations: int = 1000
+    population: int = 500
+    init: str = "minimal"
+    evaluate_modules: bool = False
+    map: str = "plus"
+    after_solved: int = 50  # generations kept after the first solution, for the generalisation test
+    top: int = 5  # most general solutions (from distinct runs) per mode that get the transfer tests
+    general_episodes: int = 25  # noisy episodes of the generalisation test
+    transfer_episodes: int = 10  # noisy episodes per transfer test
+    max_cycles: int = 1364  # shorter only for smoke tests
+    signal_tick: int = 690
+    neat: Mapping[str, Any] = field(default_factory=dict)  # NeatSettings overrides (e.g. from a config file)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "modes", tuple(self.modes))
+        bad = [m for m in self.modes if m not in MODES]
+        if bad or not self.modes or len(set(self.modes)) != len(self.modes):
+            raise ValueError(f"modes must be distinct values of {MODES}, got {list(self.modes)}")
+        if self.init not in INITS:
+            raise ValueError(f"init must be one of {INITS}, got {self.init!r}")
+        for name in ("runs", "generations", "population", "top", "general_episodes", "transfer_episodes",
+                     "max_cycles", "signal_tick"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, int) or v < 1:
+                raise ValueError(f"{name} must be a positive integer, got {v!r}")
+        for name in ("seed", "after_solved"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, int) or v < 0:
+                raise ValueError(f"{name} must be a non-negative integer, got {v!r}")
+        self.train_config(self.modes[0], self.seed)  # validates the rest (population, NEAT overrides)
+
+    # ------------------------------------------------------------------ runs
+    def seeds(self) -> list[int]:
+        return [self.seed + i for i in range(self.runs)]
+
+    def run_name(self, mode: str, seed: int) -> str:
+        return f"{mode}_s{seed:03d}"
+
+    def train_config(self, mode: str, seed: int) -> TrainConfig:
+        base = TrainConfig(mode=mode, generations=self.generations, seed=seed, init=self.init, map=self.map,
+                           evaluate_modules=self.evaluate_modules, stop_when_solved=True,
+                           after_solved=self.after_solved)
+        base = base.with_overrides(pop=self.population)
+        if self.neat:
+            base = TrainConfig.from_mapping({**base.to_dict(), "neat": {**base.neat.to_dict(), **self.neat,
+                                                                         "population_size": self.population}})
+        task = base.task.to_dict()
+        task.update(max_cycles=self.max_cycles, signal_tick=self.signal_tick)
+        return TrainConfig.from_mapping({**base.to_dict(), "task": task})
+
+    def tasks(self, out: "str | Path") -> list[tuple[str, int, Path]]:
+        """(mode, seed, run folder) for every run, seeds interleaved across modes so partial results stay paired."""
+        root = Path(out) / "runs"
+        return [(m, s, root / self.run_name(m, s)) for s in self.seeds() for m in self.modes]
+
+    # ------------------------------------------------------------------ files
+    def to_dict(self) -> dict[str, Any]:
+        d = {f.name: getattr(self, f.name) for f in fields(self)}
+        d["modes"] = list(self.modes)
+        d["neat"] = dict(self.neat)
+        return d
+
+    @classmethod
+    def from_mapping(cls, data: Mapping[str, Any]) -> "ExperimentPlan":
+        names = {f.name for f in fields(cls)}
+        unknown = set(data) - names - {"kind", "version"}
+        if unknown:
+            raise ValueError(f"unknown experiment key(s) {sorted(unknown)}; known: {sorted(names)}")
+        return cls(**{k: v for k, v in data.items() if k in names})
+
+    @classmethod
+    def load(cls, out: "str | Path") -> "ExperimentPlan":
+        return cls.from_mapping(read_versioned_json(Path(out) / PLAN_FILE, "experiment"))
+
+    def save_or_check(self, out: "str | Path") -> None:
+        """Write experiment.json, or refuse if the folder holds an experiment with another plan."""
+        path = Path(out) / PLAN_FILE
+        if path.exists():
+            saved = ExperimentPlan.load(out)
+            a, b = saved.to_dict(), self.to_dict()
+            differing = sorted(k for k in a if a[k] != b[k] and k not in ("runs", "top", "general_episodes", "transfer_episodes"))
+            if differing:
+                raise ValueError(f"{str(out)!r} holds an experiment with a different plan ({differing}); "
+                                 "use another --out or the saved settings")
+        Path(out).mkdir(parents=True, exist_ok=True)
+        atomic_write_json(path, versioned("experiment", self.to_dict()))

@@ -1,0 +1,179 @@
+"""The experiment's results folder: results.json (everything), results.md (the table a paper needs, beside
+the published figures), runs.csv, and figures/ (fitness curves with spread, fraction of runs solved per
+generation, and the paths of the transferred teams)."""
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any, Callable
+
+import numpy as np
+
+from mahn_envs.maps import load_map
+
+from ..champion import Champion
+from ..files import atomic_write_csv, atomic_write_json, atomic_write_text, versioned
+from ..plots import ROBOT_COLOURS, _mpl, draw_world
+from .plan import ExperimentPlan
+from .table import PAPER, RunRecord, curves, fisher, load_runs, mode_table
+from .transfer import TRANSFER_MAPS, most_general, trajectories, transfer_tests
+
+MODE_COLOURS = {"situational": "#0f9d58", "standard": "#4285f4"}
+
+
+def write_results(plan: ExperimentPlan, out: "str | Path", runs_wall_seconds: float = 0.0,
+                  log: Callable[[str], None] = print) -> dict[str, Any]:
+    out = Path(out)
+    runs = load_runs(plan, out)
+    table = mode_table(plan, runs)
+    test = fisher(table, plan.modes)
+    general: dict[str, list[dict[str, Any]]] = {}
+    for mode in plan.modes:
+        general[mode] = most_general(plan, runs, mode, log)
+        for e in general[mode]:
+            e["transfer"] = transfer_tests(Champion.load(out / e["file"]), plan)
+    figures = _figures(plan, out, runs, general)
+    results = {"plan": plan.to_dict(), "table": table, "fisher": test, "most_general": general,
+               "runs": [r.to_dict() for r in runs], "paper": PAPER, "figures": figures,
+               "last_invocation_run_seconds": round(runs_wall_seconds, 1)}
+    atomic_write_json(out / "results.json", versioned("experiment_results", results))
+    header = list(runs[0].to_dict()) if runs else []
+    atomic_write_csv(out / "runs.csv", header, [list(r.to_dict().values()) for r in runs])
+    atomic_write_text(out / "results.md", markdown(results))
+    log(f"wrote {out / 'results.json'}, {out / 'results.md'} and {len(figures)} figure(s)")
+    return results
+
+
+# ---------------------------------------------------------------------------------------------- markdown
+def _fmt(v: Any, digits: int = 1) -> str:
+    if v is None:
+        return "–"
+    if isinstance(v, float):
+        return f"{v:.{digits}f}"
+    return str(v)
+
+
+def markdown(results: dict[str, Any]) -> str:
+    plan, table, test = results["plan"], results["table"], results["fisher"]
+    lines = ["# Experiment results", "",
+             f"Modes {', '.join(plan['modes'])}; {plan['runs']} runs per mode (seeds {plan['seed']}–"
+             f"{plan['seed'] + plan['runs'] - 1}); population {plan['population']}; at most {plan['generations']} "
+             f"generations; init `{plan['init']}`{' with Multiply modules evaluated' if plan['evaluate_modules'] else ''}"
+             f"; map `{plan['map']}`; episodes of {plan['max_cycles']} ticks. Written by `mahn-evo experiment`.", "",
+             "## Solved runs", "",
+             "| mode | runs finished | in progress | solved | generations to solve: mean | sd | median | range | "
+             "paper |", "|---|---|---|---|---|---|---|---|---|"]
+    for mode, t in table.items():
+        p = PAPER.get(mode, {})
+        paper = f"{p['solved']}/{p['runs']}" + (f", {p['generations_mean']} ± {p['generations_sd']}"
+                                                 if "generations_mean" in p else "") if p else "–"
+        rng = f"{t['generations_min']}–{t['generations_max']}" if t["solved"] else "–"
+        lines.append(f"| {mode} | {t['runs_finished']} | {t['runs_in_progress']} | {t['solved']} | "
+                     f"{_fmt(t['generations_mean'])} | {_fmt(t['generations_sd'])} | "
+                     f"{_fmt(t['generations_median'])} | {rng} | {paper} |")
+    lines.append("")
+    lines.append("Generations to solve count generations evaluated up to and including the first solution; the sd "
+                 "is the sample sd (n − 1).  Mean and sd are over solved runs, as in the paper.")
+    if test:
+        lines += ["", f"Fisher's exact test (two-sided), solved vs not solved, {test['modes'][0]} vs "
+                      f"{test['modes'][1]}: table {test['table']}, p = {test['p_value']:.3g} "
+                      f"(paper: p {PAPER['fisher_p']})."]
+    lines += ["", "## Most general solutions and transfer", "",
+              "Per run, the archived solution with the best score over "
+              f"{plan['general_episodes']} noisy episodes on `{plan['map']}`; the best of those from distinct runs. "
+              "`training`: all robots called at tick 690 (team fitness, solved). `sequential`: the real-world "
+              "protocol in the pymunk engine (robots called home one at a time, sent back out); success = every "
+              f"robot reaches its post, returns and goes back out. Noisy columns: {plan['transfer_episodes']} "
+              "episodes with the generalisation noise.", ""]
+    head = "| mode | run | generation | solution | general: solved / mean fitness |"
+    sub = "|---|---|---|---|---|"
+    for m in TRANSFER_MAPS:
+        head += f" {m} training | {m} noisy | {m} sequential | {m} seq. noisy |"
+        sub += "---|---|---|---|"
+    lines += [head, sub]
+    for mode, entries in results["most_general"].items():
+        for e in entries:
+            row = (f"| {mode} | {e['run']} | {e['generation']} | {'yes' if e['solution'] else 'no'} | "
+                   f"{e['general_solved_fraction']:.2f} / {e['general_mean_fitness']:.1f} |")
+            for m in TRANSFER_MAPS:
+                t = e["transfer"][m]
+                row += (f" {'solved' if t['training']['solved'] else 'not solved'} ({t['training']['fitness']:.1f})"
+                        f" | {t['training_noisy']['solved_fraction']:.2f} | "
+                        f"{'success' if t['sequential']['success'] else 'fail'} ({t['sequential']['stages']:.2f}) | "
+                        f"{t['sequential_noisy']['success_fraction']:.2f} |")
+            lines.append(row)
+        n_ok = sum(e["transfer"]["transfers"] for e in entries)
+        if entries:
+            lines.append(f"| {mode}: **{n_ok}/{len(entries)}** succeed in the sequential protocol on both maps |"
+                         + " |" * (4 + 4 * len(TRANSFER_MAPS)))
+    lines += ["", f"Paper: {PAPER['transfer']}.", "", "## Figures", ""]
+    for f in results["figures"]:
+        lines.append(f"![{Path(f).stem}]({f})")
+    lines += ["", "## Runs", "", "| run | finished | generations | solved | generations to solve | best fitness | "
+              "seconds |", "|---|---|---|---|---|---|---|"]
+    for r in results["runs"]:
+        lines.append(f"| {r['run']} | {r['finished']} | {r['generations']} | {r['solved']} | "
+                     f"{_fmt(r['generations_to_solve'])} | {_fmt(r['best_fitness'], 2)} | {_fmt(r['wall_seconds'])} |")
+    return "\n".join(lines) + "\n"
+
+
+# ---------------------------------------------------------------------------------------------- figures
+def _figures(plan: ExperimentPlan, out: Path, runs: list[RunRecord], general: dict) -> list[str]:
+    plt = _mpl()
+    fig_dir = out / "figures"
+    fig_dir.mkdir(parents=True, exist_ok=True)
+    written = []
+
+    fig, ax = plt.subplots(figsize=(6.4, 3.8), dpi=110)
+    fig2, ax2 = plt.subplots(figsize=(6.4, 3.4), dpi=110)
+    for mode in plan.modes:
+        c = curves(plan, runs, mode)
+        colour = MODE_COLOURS.get(mode, "#999999")
+        n = c["best"].shape[0]
+        if n:
+            lo, med, hi = np.percentile(c["best"], [25, 50, 75], axis=0)
+            ax.plot(c["generation"], med, color=colour, lw=2, label=f"{mode} median (n={n})")
+            ax.fill_between(c["generation"], lo, hi, color=colour, alpha=0.25, lw=0)
+        ax2.step(c["generation"], c["solved_fraction"], where="post", color=colour, lw=2, label=f"{mode} (n={n})")
+    ax.axhline(100, color="#db4437", ls="--", lw=1, label="solved (> 100)")
+    ax.set(xlabel="generation", ylabel="best fitness so far", title="best fitness per mode (median, 25–75%)")
+    ax.set_yscale("symlog", linthresh=10)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8, loc="upper left")
+    fig.tight_layout()
+    fig.savefig(fig_dir / "fitness_curves.png")
+    ax2.set(xlabel="generation", ylabel="fraction of finished runs solved", ylim=(-0.02, 1.02),
+            title="runs solved by generation")
+    ax2.grid(alpha=0.3)
+    ax2.legend(fontsize=8, loc="upper left")
+    fig2.tight_layout()
+    fig2.savefig(fig_dir / "solved_fraction.png")
+    plt.close(fig)
+    plt.close(fig2)
+    written += ["figures/fitness_curves.png", "figures/solved_fraction.png"]
+
+    worlds = {m: load_map(m) for m in TRANSFER_MAPS}
+    for mode, entries in general.items():
+        if not entries:
+            continue
+        cols = [f"{m} / {p}" for m in TRANSFER_MAPS for p in ("training", "sequential")]
+        fig, axes = plt.subplots(len(entries), len(cols), figsize=(2.6 * len(cols), 2.6 * len(entries)), dpi=100,
+                                 squeeze=False)
+        for i, e in enumerate(entries):
+            paths = trajectories(Champion.load(out / e["file"]), seed=plan.seed)
+            for j, key in enumerate(cols):
+                ax = axes[i, j]
+                draw_world(ax, worlds[key.split(" / ")[0]])
+                traj, cut = paths[key]
+                cut = len(traj) if cut is None else min(cut + 1, len(traj))
+                for r in range(traj.shape[1]):
+                    colour = ROBOT_COLOURS[r % len(ROBOT_COLOURS)]
+                    ax.plot(traj[:cut, r, 0], traj[:cut, r, 1], color=colour, lw=1)
+                    ax.plot(traj[cut - 1:, r, 0], traj[cut - 1:, r, 1], color=colour, lw=0.8, ls="--")
+                title = key if i == 0 else ""
+                ax.set_title(f"{title}\n{e['run']}" if title else e["run"], fontsize=7)
+        fig.tight_layout()
+        name = f"figures/transfer_{mode}.png"
+        fig.savefig(out / name)
+        plt.close(fig)
+        written.append(name)
+    return written

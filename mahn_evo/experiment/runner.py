@@ -1,0 +1,45 @@
+"""`mahn-evo experiment`: the paper's whole evaluation as one resumable command.
+
+plan (experiment.json) -> independent seeded runs (runs/<mode>_sNNN, local processes or Ray)
+-> table (solved runs, generation of first solution, Fisher's exact test) -> most general solutions
+(generalisation test per run) -> transfer tests (maps x protocols x noise) -> results.json, results.md, figures.
+"""
+from __future__ import annotations
+
+import time
+from pathlib import Path
+from typing import Any, Callable, Optional
+
+from .backends import run_tasks
+from .plan import PLAN_FILE, ExperimentPlan
+from .report import write_results
+
+
+def run_experiment(plan: ExperimentPlan, out: "str | Path", backend: str = "local", workers: int = 2,
+                   address: Optional[str] = None, analyse: bool = True, run: bool = True,
+                   log: Callable[[str], None] = print) -> dict[str, Any]:
+    out = Path(out)
+    if not run:  # report on the experiment as saved, whatever plan the caller passed
+        if not (out / PLAN_FILE).exists():
+            raise ValueError(f"{str(out)!r} holds no experiment ({PLAN_FILE} missing); start it without --report-only")
+        return write_results(ExperimentPlan.load(out), out, log=log)
+    plan.save_or_check(out)
+    tasks = [(folder.name, plan.train_config(mode, seed).to_dict(), str(folder))
+             for mode, seed, folder in plan.tasks(out)]
+    t0 = time.perf_counter()
+    count = [0]
+
+    def on_done(name: str, summary: dict) -> None:
+        count[0] += 1
+        sol = summary.get("first_solved_generation")
+        log(f"[{count[0]}/{len(tasks)}] {name}: " + (f"solved at generation {sol}" if sol is not None else
+            "not solved") + f", best {summary.get('best_fitness') or 0:.2f} after {summary['generations']} "
+            f"generations ({summary.get('wall_seconds', 0):.0f} s)")
+
+    log(f"experiment {out}: {len(tasks)} runs ({', '.join(plan.modes)} x {plan.runs} seeds from {plan.seed}), "
+        f"backend {backend}, {workers} worker(s)")
+    run_tasks(tasks, backend=backend, workers=workers, address=address, on_done=on_done)
+    wall = time.perf_counter() - t0
+    if not analyse:
+        return {}
+    return write_results(plan, out, runs_wall_seconds=wall, log=log)

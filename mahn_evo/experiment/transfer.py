@@ -1,0 +1,86 @@
+"""Most general solutions and their transfer tests.
+
+The paper picks, in each run, the solution that generalises best (25 noisy evaluations on the training map),
+takes the best of those from distinct runs, and moves them to the real robots on the plus and asymmetric plus
+maps with the sequential call-home protocol.  Here the same teams go through both protocols on both maps, in
+simulation, exactly and under the generalisation noise.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any, Callable, Optional
+
+import numpy as np
+
+from mahn_envs.core import BatchSim
+from mahn_envs.policy import ControllerPolicy
+
+from ..champion import Champion
+from ..evaluate import evaluate_champion, task_params
+from ..generalize import generalize
+from ..protocols import sequential, sequential_episode
+from .plan import ExperimentPlan
+from .table import RunRecord
+
+TRANSFER_MAPS = ("plus", "asymmetric_plus")
+
+
+def most_general(plan: ExperimentPlan, runs: list[RunRecord], mode: str,
+                 log: Callable[[str], None] = print) -> list[dict[str, Any]]:
+    """The `plan.top` most general teams of a mode, one per run: solutions first (a run that found none
+    offers its champion, marked as such, so an unsuccessful mode can still be inspected)."""
+    entries = []
+    for r in runs:
+        if r.mode != mode or not r.finished:
+            continue
+        rows = generalize(r.folder, episodes=plan.general_episodes, map=plan.map, seed=plan.seed)
+        top = rows[0]
+        archived = r.folder / "archive" / top["file"]
+        path = archived if archived.exists() else r.folder / top["file"]
+        entries.append({"run": r.name, "seed": r.seed, "file": str(path.relative_to(r.folder.parent.parent)),
+                        "solution": archived.exists(), "generation": top["generation"],
+                        "training_fitness": top["training_fitness"], "candidates": len(rows),
+                        "general_solved_fraction": top["solved_fraction"],
+                        "general_mean_fitness": top["mean_fitness"], "general_std_fitness": top["std_fitness"]})
+    entries.sort(key=lambda e: (not e["solution"], -e["general_solved_fraction"], -e["general_mean_fitness"],
+                                e["run"]))
+    log(f"{mode}: {len(entries)} run(s) ranked by generalisation, {sum(e['solution'] for e in entries)} with "
+        f"solutions; transferring the top {min(plan.top, len(entries))}")
+    return entries[:plan.top]
+
+
+def _policy(champ: Champion) -> ControllerPolicy:
+    return ControllerPolicy(champ.controllers, [f"robot_{k}" for k in range(champ.controllers.n_robots)])
+
+
+def transfer_tests(champ: Champion, plan: ExperimentPlan) -> dict[str, Any]:
+    """Both protocols on both maps, exact (1 episode) and noisy (plan.transfer_episodes episodes)."""
+    noisy = task_params("generalization")
+    out: dict[str, Any] = {}
+    for m in TRANSFER_MAPS:
+        exact = evaluate_champion(champ, map=m, episodes=1, seed=plan.seed)
+        noise = evaluate_champion(champ, map=m, episodes=plan.transfer_episodes, params=noisy, seed=plan.seed)
+        seq = sequential(_policy(champ), map=m, episodes=1, seed=plan.seed)
+        seq_noise = sequential(_policy(champ), map=m, params=noisy, episodes=plan.transfer_episodes,
+                               seed=plan.seed)
+        out[m] = {
+            "training": {"fitness": exact["fitness"], "solved": exact["solved"]},
+            "training_noisy": {"fitness": noise["fitness"], "solved_fraction": noise["solved_fraction"]},
+            "sequential": {"success": bool(seq["solved"][0]), "stages": float(seq["fitness"][0])},
+            "sequential_noisy": {"success_fraction": float(np.mean(seq_noise["solved"])),
+                                 "stages": float(np.mean(seq_noise["fitness"]))},
+        }
+    out["transfers"] = all(out[m]["sequential"]["success"] for m in TRANSFER_MAPS)
+    return out
+
+
+def trajectories(champ: Champion, seed: int = 0) -> dict[str, tuple[np.ndarray, Optional[int]]]:
+    """Paths for the figure: (T, R, >=2) per map and protocol, with the signal tick where there is one."""
+    paths: dict[str, tuple[np.ndarray, Optional[int]]] = {}
+    for m in TRANSFER_MAPS:
+        sim = BatchSim(m, 1)
+        res = sim.run_controllers(champ.controllers, record=True)
+        paths[f"{m} / training"] = (res.trajectories[0], sim.params.signal_tick)
+        seq = sequential_episode(_policy(champ), map=m, seed=seed, record=True)
+        paths[f"{m} / sequential"] = (seq.trajectory, None)
+    return paths

@@ -1,0 +1,123 @@
+"""`mahn-evo experiment`: plan checks, the table and Fisher's test, a small end-to-end experiment, resume after an
+interruption, and the Ray backend giving the same runs as local processes."""
+import csv
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy.stats import fisher_exact
+
+from mahn_evo.cli import main
+from mahn_evo.experiment import ExperimentPlan, run_experiment
+from mahn_evo.experiment.table import RunRecord, fisher, mode_table
+from mahn_evo.trainer import Trainer
+
+SMALL = dict(runs=2, seed=5, generations=3, population=16, max_cycles=240, signal_tick=120, general_episodes=3,
+             transfer_episodes=2, top=2)
+
+
+def _rows(run_dir: Path) -> list[list[str]]:
+    """A run's log without the wall-clock column."""
+    with open(run_dir / "log.csv") as f:
+        return [row[:-1] for row in csv.reader(f)]
+
+
+def _quiet(_msg: str) -> None:
+    pass
+
+
+def test_plan_validation_and_refusal(tmp_path):
+    with pytest.raises(ValueError, match="modes"):
+        ExperimentPlan(modes=("situational", "nope"))
+    with pytest.raises(ValueError, match="runs"):
+        ExperimentPlan(runs=0)
+    with pytest.raises(ValueError, match="init"):
+        ExperimentPlan(init="random")
+    plan = ExperimentPlan(**SMALL)
+    plan.save_or_check(tmp_path)
+    ExperimentPlan(**{**SMALL, "runs": 4, "top": 1}).save_or_check(tmp_path)  # more runs: allowed
+    with pytest.raises(ValueError, match="population"):
+        ExperimentPlan(**{**SMALL, "population": 20}).save_or_check(tmp_path)
+    cfg = plan.train_config("standard", 7)
+    assert (cfg.mode, cfg.seed, cfg.neat.population_size, cfg.task.max_cycles) == ("standard", 7, 16, 240)
+    assert cfg.stop_when_solved and cfg.after_solved == plan.after_solved
+
+
+def _record(mode, seed, first, gens=1000):
+    best = np.linspace(1, 150 if first is not None else 50, gens)
+    return RunRecord(f"{mode}_s{seed:03d}", mode, seed, Path("."), True, gens, first is not None, first,
+                     float(best.max()), 1.0, best)
+
+
+def test_table_and_fisher_on_the_papers_counts():
+    plan = ExperimentPlan(runs=15)
+    firsts = [10, 50, 90, 200, 300, 400, 120, 33, 999, 5, 640, 70, 260, 410, 180]
+    runs = [_record("situational", s, f) for s, f in enumerate(firsts)]
+    runs += [_record("standard", s, f) for s, f in enumerate([100, 500, 800] + [None] * 12)]
+    table = mode_table(plan, runs)
+    gens = np.array(firsts) + 1
+    assert table["situational"]["solved"] == 15 and table["standard"]["solved"] == 3
+    assert table["situational"]["generations_mean"] == pytest.approx(gens.mean())
+    assert table["situational"]["generations_sd"] == pytest.approx(gens.std(ddof=1))
+    test = fisher(table, plan.modes)
+    assert test["table"] == [[15, 0], [3, 12]]
+    assert test["p_value"] == pytest.approx(fisher_exact([[15, 0], [3, 12]]).pvalue)
+    assert test["p_value"] < 1e-4  # the paper's 15/15 vs 3/15 is p < 0.0001
+
+
+def test_small_experiment_end_to_end_and_report_only(tmp_path):
+    out = tmp_path / "exp"
+    plan = ExperimentPlan(**SMALL)
+    results = run_experiment(plan, out, workers=2, log=_quiet)
+    saved = json.loads((out / "results.json").read_text())
+    assert saved["kind"] == "experiment_results" and saved["table"] == json.loads(json.dumps(results["table"]))
+    for mode in plan.modes:
+        t = results["table"][mode]
+        assert t["runs_finished"] == 2 and t["runs_in_progress"] == 0
+        assert len(results["most_general"][mode]) == 2
+        for e in results["most_general"][mode]:
+            assert set(e["transfer"]) == {"plus", "asymmetric_plus", "transfers"}
+            assert (out / e["file"]).exists()
+    for run in results["runs"]:
+        assert run["finished"] and run["generations"] == 3
+        summary = json.loads((out / "runs" / run["run"] / "summary.json").read_text())
+        assert summary["best_fitness"] == pytest.approx(run["best_fitness"])
+    md = (out / "results.md").read_text()
+    assert "| situational | 2 | 0 |" in md and "Fisher's exact test" in md
+    for fig in results["figures"]:
+        assert (out / fig).stat().st_size > 1000
+    with open(out / "runs.csv") as f:
+        assert len(list(csv.DictReader(f))) == 4
+    # --report-only reads the saved plan and starts nothing
+    before = {p: p.stat().st_mtime_ns for p in (out / "runs").glob("*/log.csv")}
+    assert main(["experiment", "--report-only", "--out", str(out)]) == 0
+    assert before == {p: p.stat().st_mtime_ns for p in (out / "runs").glob("*/log.csv")}
+
+
+def test_interrupted_experiment_resumes_bit_identically(tmp_path):
+    plan = ExperimentPlan(**{**SMALL, "modes": ("situational",)})
+    run_experiment(plan, tmp_path / "straight", workers=1, analyse=False, log=_quiet)
+    # an interrupted experiment: one run stopped after 1 generation, the other never started
+    plan.save_or_check(tmp_path / "cut")
+    (_, seed, folder), _ = plan.tasks(tmp_path / "cut")
+    cfg = plan.train_config("situational", seed)
+    t = Trainer(cfg, folder)
+    t.step()
+    t._write_log()
+    t._checkpoint()
+    assert len(_rows(folder)) == 2
+    run_experiment(plan, tmp_path / "cut", workers=2, analyse=False, log=_quiet)
+    for _, _, f in plan.tasks(tmp_path / "straight"):
+        assert _rows(f) == _rows(tmp_path / "cut" / "runs" / f.name)
+
+
+def test_ray_backend_gives_the_same_runs(tmp_path):
+    plan = ExperimentPlan(**{**SMALL, "runs": 1})
+    run_experiment(plan, tmp_path / "local", workers=2, analyse=False, log=_quiet)
+    run_experiment(plan, tmp_path / "ray", backend="ray", workers=2, analyse=False, log=_quiet)
+    for _, _, f in plan.tasks(tmp_path / "local"):
+        assert _rows(f) == _rows(tmp_path / "ray" / "runs" / f.name)
+        a = json.loads((f / "champion.json").read_text())
+        b = json.loads((tmp_path / "ray" / "runs" / f.name / "champion.json").read_text())
+        assert a == b
