@@ -229,6 +229,21 @@ def cmd_eval(args) -> int:
         champ = Champion.load(args.champion)
         policy = ControllerPolicy(champ.controllers, [f"robot_{k}" for k in range(champ.controllers.n_robots)])
         result = sequential(policy, map=args.map, params=params, episodes=args.episodes, seed=args.seed)
+        if args.video or args.plot:  # the first episode again, filmed / recorded
+            from .plots import save_gif, trajectory_plot
+            from .protocols import sequential_episode
+
+            frames: Optional[list] = [] if args.video else None
+            ep = sequential_episode(policy, map=args.map, params=params, seed=args.seed, record=True,
+                                    frames=frames)
+            if args.video:
+                save_gif(frames, args.video, fps=15)
+            if args.plot:
+                from mahn_envs.maps import load_map
+
+                trajectory_plot(load_map(args.map), ep.trajectory, args.plot,
+                                title=f"sequential protocol on {args.map}: "
+                                      f"{'success' if ep.success else 'fail'} ({ep.stages_completed}/9 stages)")
         result.update(protocol="sequential", map=args.map, solved_fraction=float(sum(result["solved"])) /
                       len(result["solved"]))
         if args.json:

@@ -71,12 +71,14 @@ def _manhattan(p, q) -> float:
 
 
 class _Runner:
-    def __init__(self, policy, env, settings: SequentialSettings, record: bool) -> None:
+    def __init__(self, policy, env, settings: SequentialSettings, record: bool, frame_every: int = 0) -> None:
         self.policy, self.env, self.s = policy, env, settings
         self.obs: dict = {}
         self.infos: dict = {}
         self.history: list[list[tuple[float, float, float]]] = []
         self.record = record
+        self.frame_every = frame_every
+        self.frames: list[np.ndarray] = []
 
     def poses(self) -> list[tuple[float, float, float]]:
         return [self.infos[a]["pose"] for a in self.env.possible_agents]
@@ -85,6 +87,8 @@ class _Runner:
         src = self.infos if getattr(self.policy, "uses_infos", False) else self.obs
         self.obs, _, _, _, self.infos = self.env.step(self.policy.act(src))
         self.history.append(self.poses())
+        if self.frame_every and len(self.history) % self.frame_every == 0:
+            self.frames.append(self.env.render())
 
     def stopped(self, k: int) -> bool:
         w = self.s.stop_window
@@ -95,15 +99,18 @@ class _Runner:
 
 
 def sequential_episode(policy, map: str = "plus", params: Optional[TaskParams] = None, seed: int = 0,
-                       settings: Optional[SequentialSettings] = None, record: bool = False) -> SequentialResult:
+                       settings: Optional[SequentialSettings] = None, record: bool = False,
+                       frames: Optional[list] = None, frame_every: int = 10) -> SequentialResult:
+    """One episode of the sequential protocol; RGB frames (every `frame_every` ticks) go to `frames` if given."""
     s = settings or SequentialSettings()
     params = params or TaskParams()
     total = s.patrol_ticks + 3 * (s.return_ticks + s.out_ticks) + 10
     kw = {k: v for k, v in params.to_dict().items()
           if k not in ("max_cycles", "signal_tick", "sample_period", "auto_signal", "robots_see_each_other")}
     env = patrol_return_v0.parallel_env(map=map, engine="pymunk", robots_collide=True, robots_see_each_other=True,
-                                        auto_signal=False, max_cycles=total, signal_tick=total - total % 30, **kw)
-    run = _Runner(policy, env, s, record)
+                                        auto_signal=False, max_cycles=total, signal_tick=total - total % 30,
+                                        render_mode="rgb_array" if frames is not None else None, **kw)
+    run = _Runner(policy, env, s, record, frame_every if frames is not None else 0)
     run.obs, run.infos = env.reset(seed=seed)
     policy.reset()
     agents = env.possible_agents
@@ -162,6 +169,8 @@ def sequential_episode(policy, map: str = "plus", params: Optional[TaskParams] =
                 break
     stages = sum(int(r.reached_post) + int(r.returned_home) + int(r.went_back_out) for r in records)
     success = all(r.reached_post and r.returned_home and r.went_back_out for r in records)
+    if frames is not None:
+        frames.extend(run.frames)
     env.close()
     return SequentialResult(success, stages, records, len(run.history),
                             np.asarray(run.history) if record else None)
