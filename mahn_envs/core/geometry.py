@@ -107,19 +107,47 @@ def cast_rays(cx, cy, heading, dirs, max_range, walls, boxes, others, n_others, 
     ch = math.cos(heading)
     sh = math.sin(heading)
     for j in range(n_rays):
-        # rotate the precomputed sensor direction by the heading: one sincos per robot, not one per ray
+        out[j] = max_range
+    # Walls outer, rays inner: the ray-independent half of `ray_wall` (the wall's direction, its offset from
+    # the centre and the numerator of r) is computed once per wall.  Each ray still meets the walls in the
+    # same order with the same arithmetic, so readings are bit-identical to `ray_wall` over rays then walls.
+    for k in range(n_cand):
+        w = cand[k]
+        x1 = walls[w, 0]
+        y1 = walls[w, 1]
+        ex = walls[w, 2] - x1
+        ey = walls[w, 3] - y1
+        ax = x1 - cx
+        ay = y1 - cy
+        rn = ax * ey - ay * ex
+        for j in range(n_rays):
+            # rotate the precomputed sensor direction by the heading: one sincos per robot, not one per ray
+            ux = ch * dirs[j, 0] - sh * dirs[j, 1]
+            uy = sh * dirs[j, 0] + ch * dirs[j, 1]
+            dx = ux * max_range
+            dy = uy * max_range
+            denom = dx * ey - dy * ex
+            if denom == 0.0:
+                continue
+            sn = ax * dy - ay * dx
+            # r = rn / denom and s = sn / denom must both lie strictly in (0, 1).  Rounding a quotient is
+            # monotonic, so numerators outside (0, denom) (or (denom, 0)) are certain misses: skip the two
+            # divisions.  Anything else goes through the exact test of `ray_wall`.
+            if denom > 0.0:
+                if not (0.0 < rn < denom and 0.0 < sn < denom):
+                    continue
+            elif not (denom < rn < 0.0 and denom < sn < 0.0):
+                continue
+            r = rn / denom
+            s = sn / denom
+            if 0.0 < r < 1.0 and 0.0 < s < 1.0:
+                d = r * max_range
+                if d < out[j]:
+                    out[j] = d
+    for j in range(n_rays):
         ux = ch * dirs[j, 0] - sh * dirs[j, 1]
         uy = sh * dirs[j, 0] + ch * dirs[j, 1]
-        dx = ux * max_range
-        dy = uy * max_range
-        best = max_range
-        for k in range(n_cand):
-            w = cand[k]
-            r = ray_wall(cx, cy, dx, dy, walls[w, 0], walls[w, 1], walls[w, 2], walls[w, 3])
-            if r < 1.0:
-                d = r * max_range
-                if d < best:
-                    best = d
+        best = out[j]
         for k in range(n_others):
             qx = others[k, 0]
             qy = others[k, 1]

@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from .controller import network_action
+from .controller import is_size_9, network_action, network_action_9
 from .rng import CH_ACTION, uniform
 from .task import (E_TICK, F_SIGNAL, H, P_MAXT, X, Y, decide_robot, move_robot, score_tick,
                    sense_episode, team_fitness)
@@ -68,10 +68,17 @@ def run_controllers(pose, raw, obs, racc, rflag, goto, est, walls, boxes, dirs, 
     n_ep = pose.shape[0]
     n_robots = pose.shape[1]
     n_ticks = int(params[P_MAXT])
+    size_9 = is_size_9(wt_ih)
+    # Scratch allocated here, not in the loop body: arrays from outside the parallel loop reach its body
+    # without a reference count (numba passes them as plain pointers), so the per-call reference counting of
+    # the functions they go to is a null test instead of an atomic update.
+    others_all = np.empty((n_ep, n_robots, 2), dtype=np.float64)
+    cand_all = np.empty((n_ep, walls.shape[0]), dtype=np.int64)
+    tmp_all = np.empty((n_ep, wt_hh.shape[3] + 3), dtype=np.float32)
     for b in prange(n_ep):
-        others = np.empty((n_robots, 2), dtype=np.float64)
-        cand = np.empty(walls.shape[0], dtype=np.int64)
-        tmp_h = np.empty(wt_hh.shape[3] + 3, dtype=np.float32)
+        others = others_all[b]
+        cand = cand_all[b]
+        tmp_h = tmp_all[b]
         if record:
             for r in range(n_robots):
                 traj[b, 0, r, 0] = pose[b, r, X]
@@ -81,8 +88,12 @@ def run_controllers(pose, raw, obs, racc, rflag, goto, est, walls, boxes, dirs, 
         for tick in range(1, n_ticks + 1):
             est[b, E_TICK] = tick
             for r in range(n_robots):
-                action = network_action(b, r, obs, rflag[b, r, F_SIGNAL], wt_ih, wt_hh, wt_ho, b_h, b_o,
-                                        hid, out, brain, tmp_h)
+                if size_9:
+                    action = network_action_9(b, r, obs, rflag[b, r, F_SIGNAL], wt_ih, wt_hh, wt_ho, b_h, b_o,
+                                              hid, out, brain, tmp_h)
+                else:
+                    action = network_action(b, r, obs, rflag[b, r, F_SIGNAL], wt_ih, wt_hh, wt_ho, b_h, b_o,
+                                            hid, out, brain, tmp_h)
                 decide_robot(b, r, action, tick, pose, raw, params, seed, keys[b])
                 if record:
                     traj[b, tick, r, 3] = action

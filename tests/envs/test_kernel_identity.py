@@ -1,0 +1,188 @@
+"""The optimised hot paths against straightforward references: results must be bit-identical, not close.
+
+Evolution runs are reproducible from their seed only while every float operation stays the same, so the
+fast network (`network_action_9`), the wall-outer ray cast and the fused episode loop are checked here with
+exact equality against plain formulations of the same rules.
+"""
+import math
+
+import numpy as np
+import pytest
+from numba import njit
+
+from mahn_envs.core import BatchSim, TaskParams
+from mahn_envs.core import kernels
+from mahn_envs.core.controller import _sigmoid, network_action, transposed, winner_take_all
+from mahn_envs.core.geometry import cast_rays, ray_circle, ray_wall, sensor_directions, wall_boxes
+from mahn_envs.maps import load_map
+
+from .helpers import random_team
+
+
+@njit(error_model="numpy")
+def reference_network(b, r, obs, rflag_signal, wt_ih, wt_hh, wt_ho, b_h, b_o, hid, out, brain, tmp):
+    """Two synchronous steps as written first: every node's sum from 0, inputs then hidden, outputs included."""
+    n_hidden = wt_hh.shape[3]
+    n_in = wt_ih.shape[3]
+    wanted = 1 if (wt_ih.shape[2] == 2 and rflag_signal != 0) else 0
+    if wanted != brain[b, r]:
+        brain[b, r] = wanted
+        for i in range(n_hidden):
+            hid[b, r, i] = 0.0
+        for o in range(3):
+            out[b, r, o] = 0.0
+    k = brain[b, r]
+    for _ in range(2):
+        for q in range(3):
+            acc = np.float32(0.0)
+            for m in range(n_hidden):
+                acc += wt_ho[b, r, k, m, q] * hid[b, r, m]
+            tmp[n_hidden + q] = acc
+        for i in range(n_hidden):
+            acc = np.float32(0.0)
+            for j in range(n_in):
+                acc += wt_ih[b, r, k, j, i] * obs[b, r, j]
+            for m in range(n_hidden):
+                acc += wt_hh[b, r, k, m, i] * hid[b, r, m]
+            tmp[i] = acc
+        for q in range(3):
+            out[b, r, q] = _sigmoid(tmp[n_hidden + q] + b_o[b, r, k, q])
+        for i in range(n_hidden):
+            hid[b, r, i] = _sigmoid(tmp[i] + b_h[b, r, k, i])
+    return winner_take_all(out[b, r, 0], out[b, r, 1], out[b, r, 2])
+
+
+@njit(error_model="numpy")
+def reference_cast_rays(cx, cy, heading, dirs, max_range, walls, others, n_others, robot_radius, out):
+    """Every ray against every wall (no culling) through `ray_wall`, then the other robots."""
+    ch = math.cos(heading)
+    sh = math.sin(heading)
+    for j in range(dirs.shape[0]):
+        ux = ch * dirs[j, 0] - sh * dirs[j, 1]
+        uy = sh * dirs[j, 0] + ch * dirs[j, 1]
+        best = max_range
+        for w in range(walls.shape[0]):
+            r = ray_wall(cx, cy, ux * max_range, uy * max_range, walls[w, 0], walls[w, 1], walls[w, 2], walls[w, 3])
+            if r < 1.0:
+                d = r * max_range
+                if d < best:
+                    best = d
+        for k in range(n_others):
+            qx = others[k, 0]
+            qy = others[k, 1]
+            if abs(qx - cx) > max_range + robot_radius or abs(qy - cy) > max_range + robot_radius:
+                continue
+            d = ray_circle(cx, cy, ux, uy, qx, qy, robot_radius)
+            if d < best:
+                best = d
+        out[j] = best
+
+
+def _run_networks(fn, weights, obs_seq, sig_seq):
+    B, R = obs_seq.shape[1], obs_seq.shape[2]
+    n_hidden = weights[1].shape[-1]
+    hid = np.zeros((B, R, n_hidden), np.float32)
+    out = np.zeros((B, R, 3), np.float32)
+    brain = np.zeros((B, R), np.int64)
+    tmp = np.zeros(n_hidden + 3, np.float32)
+    acts, hids, outs = [], [], []
+    for t in range(obs_seq.shape[0]):
+        obs = np.ascontiguousarray(obs_seq[t])
+        for b in range(B):
+            for r in range(R):
+                acts.append(fn(b, r, obs, sig_seq[t, b, r], *weights, hid, out, brain, tmp))
+        hids.append(hid.copy())
+        outs.append(out.copy())
+    return np.array(acts), np.array(hids), np.array(outs)
+
+
+@pytest.mark.parametrize("brains", [1, 2])
+@pytest.mark.parametrize("scale", [0.2, 1.5, 6.0])
+def test_network_matches_reference_bitwise(brains, scale):
+    rng = np.random.default_rng(brains * 10 + int(scale * 10))
+    teams = [random_team(s, n_brains=brains, scale=scale) for s in range(6)]
+    ctrl = type(teams[0])(*(np.stack([getattr(t, f) for t in teams]) for f in ("w_ih", "w_hh", "w_ho", "b_h", "b_o")))
+    weights = transposed(ctrl)
+    T = 120
+    obs_seq = rng.uniform(-0.2, 1.0, (T, 6, 3, 7)).astype(np.float32)
+    obs_seq[:, :, :, :6][obs_seq[:, :, :, :6] < 0.25] = 0.0
+    sig_seq = np.zeros((T, 6, 3), np.int64)
+    sig_seq[60:] = 1
+    sig_seq[90:100, :, 1] = 0  # an operator clearing one robot's signal switches its brain back
+    obs_seq[:, :, :, 6] = sig_seq
+    fast = _run_networks(network_action, weights, obs_seq, sig_seq)
+    ref = _run_networks(reference_network, weights, obs_seq, sig_seq)
+    for a, b in zip(fast, ref):
+        assert np.array_equal(a, b)
+    assert len(np.unique(fast[0])) > 1  # the teams do act differently
+
+
+def test_ray_cast_matches_reference_bitwise():
+    rng = np.random.default_rng(3)
+    plus = np.ascontiguousarray(load_map("plus").walls)
+    random_walls = rng.uniform(-20, 60, (40, 4))
+    random_walls[::4, 3] = random_walls[::4, 1]  # some horizontal
+    random_walls[1::4, 2] = random_walls[1::4, 0]  # some vertical
+    dirs = sensor_directions([1.3398 - j * 0.53592 for j in range(6)])
+    for walls in (plus, np.ascontiguousarray(random_walls)):
+        boxes = wall_boxes(walls)
+        cand = np.zeros(walls.shape[0], np.int64)
+        lo, hi = walls[:, :2].min() - 20, walls[:, 2:].max() + 20
+        hits = 0
+        for _ in range(3000):
+            cx, cy = rng.uniform(lo, hi, 2)
+            h = rng.choice([rng.uniform(-7, 7), rng.integers(-4, 5) * math.pi / 2])  # axis-parallel rays too
+            others = rng.uniform(-12, 12, (2, 2)) + [cx, cy]
+            n_others = int(rng.integers(0, 3))
+            got = np.zeros(6)
+            want = np.zeros(6)
+            cast_rays(cx, cy, h, dirs, 16.66, walls, boxes, others, n_others, 6.5, got, cand)
+            reference_cast_rays(cx, cy, h, dirs, 16.66, walls, others, n_others, 6.5, want)
+            assert np.array_equal(got, want), (cx, cy, h)
+            hits += int(np.sum(got < 16.66))
+        assert hits > 1000
+
+
+@njit(error_model="numpy")
+def _reference_episodes(sim_state, weights, hid, out, brain, n_ticks, traj):
+    (pose, raw, obs, racc, rflag, goto, est, prev_fit, rewards, solved, walls, boxes, dirs, pois, home, params,
+     seed, keys, others, cand) = sim_state
+    wt_ih, wt_hh, wt_ho, b_h, b_o = weights
+    B, R = pose.shape[0], pose.shape[1]
+    actions = np.zeros((B, R), np.int64)
+    tmp = np.zeros(wt_hh.shape[3] + 3, np.float32)
+    for t in range(1, n_ticks + 1):
+        for b in range(B):
+            for r in range(R):
+                actions[b, r] = reference_network(b, r, obs, rflag[b, r, 0], wt_ih, wt_hh, wt_ho, b_h, b_o,
+                                                  hid, out, brain, tmp)
+        kernels.step_all(actions, pose, raw, obs, racc, rflag, goto, est, prev_fit, rewards, solved, walls, boxes,
+                         dirs, pois, home, params, seed, keys, others, cand)
+        traj[:, t, :, :3] = pose[:, :, :3]
+        traj[:, t, :, 3] = actions
+
+
+@pytest.mark.parametrize("brains", [1, 2])
+@pytest.mark.parametrize("noisy", [False, True])
+def test_fused_episode_loop_matches_step_by_step_reference(brains, noisy):
+    params = TaskParams(max_cycles=240, signal_tick=120, robots_see_each_other=noisy,
+                        **(dict(sensor_noise=5.0, effector_noise=10.0, heading_noise=0.005, start_jitter_xy=2.0,
+                                start_jitter_heading=0.1) if noisy else {}))
+    teams = [random_team(s + 40, n_brains=brains) for s in range(5)]
+    ctrl = type(teams[0])(*(np.stack([getattr(t, f) for t in teams]) for f in ("w_ih", "w_hh", "w_ho", "b_h", "b_o")))
+    fast = BatchSim("plus", 5, params).run_controllers(ctrl, seed=3, record=True)
+    sim = BatchSim("plus", 5, params)
+    sim.reset(seed=3)
+    traj = np.zeros_like(fast.trajectories)
+    traj[:, 0, :, :3] = sim.pose[:, :, :3]
+    traj[:, 0, :, 3] = -1.0
+    state = (sim.pose, sim.raw, sim.obs, sim.racc, sim.rflag, sim.goto, sim.est, sim.prev_fit, sim.rewards, sim.solved,
+             sim._walls, sim._boxes, sim._dirs, sim._pois, sim._home, sim._pvec, sim.seed, sim.keys, sim._others,
+             sim._cand)
+    hid = np.zeros((5, 3, 9), np.float32)
+    out = np.zeros((5, 3, 3), np.float32)
+    brain = np.zeros((5, 3), np.int64)
+    _reference_episodes(state, transposed(ctrl), hid, out, brain, params.max_cycles, traj)
+    assert np.array_equal(fast.trajectories, traj)
+    assert np.array_equal(fast.fitness, sim.prev_fit)
+    assert np.array_equal(fast.collisions, sim.racc[:, :, 3].astype(np.int64))
