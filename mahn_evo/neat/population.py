@@ -11,7 +11,9 @@ calls an evaluator itself::
 ``tell`` runs the original's pipeline (section 8 of the reference sheet) in this order: sort species by fitness,
 statistics and stagnation, target and elite sizes, drop species with target 0, asexual then sexual offspring (the
 innovation tables are cleared first), trim species to their elites, place offspring (parent species first), adjust
-the threshold and re-speciate fully if it moved or mean complexity changed by more than 5 %.
+the threshold and re-speciate fully if it moved or mean complexity changed by more than 5 %.  With
+``population_stagnation_generations`` > 0 (off in the original) a population whose best has not improved for more
+than that many generations gives its whole target to the two best species (NEAT 2002).
 
 Every random choice is drawn from one ``numpy.random.Generator`` (PCG64), species are processed in id order and
 the population size never changes, so a seed determines the whole run; :meth:`to_dict` captures the complete state
@@ -29,7 +31,7 @@ import numpy as np
 from .genome import Genome
 from .initial import initial_population
 from .innovation import InnovationTracker
-from .reproduction import elite_sizes, make_offspring, stagnation_adjusted_means, target_sizes
+from .reproduction import elite_sizes, make_offspring, stagnation_adjusted_means, target_sizes, top_two_targets
 from .settings import NeatSettings
 from .speciation import RepresentativeIndex, Species, ThresholdController, first_compatible, speciate_all
 
@@ -86,6 +88,8 @@ class Population:
         self._ref_complexity = self._mean_complexity(self._genomes)
         self.best_genome: Genome | None = None
         self.best_fitness: float = -math.inf
+        #: Generation in which best_fitness last improved (for ``population_stagnation_generations``).
+        self.last_improvement = 0
 
     # ---------------------------------------------------------------------------------------------- building
     @classmethod
@@ -151,6 +155,7 @@ class Population:
         if f[best] > self.best_fitness:
             self.best_fitness = float(f[best])
             self.best_genome = genomes[best]
+            self.last_improvement = gen
         champion = 0
         for k, sp in enumerate(self._species):
             top = float(f[sp.members[0]])
@@ -163,7 +168,16 @@ class Population:
         n_species = len(self._species)
 
         means = stagnation_adjusted_means(self._species, f, champion, gen, s)
-        targets = target_sizes(means, champion, n)
+        ps = s.population_stagnation_generations
+        if ps > 0 and gen - self.last_improvement > ps:
+            # NEAT 2002: refocus on the two best species; their stagnation clocks and the population's restart
+            tops = np.array([float(f[sp.members[0]]) for sp in self._species])
+            targets = top_two_targets(tops, champion, n)
+            for k in np.flatnonzero(targets > 0).tolist():
+                self._species[k].last_improvement = gen
+            self.last_improvement = gen
+        else:
+            targets = target_sizes(means, champion, n)
         sizes = np.array([len(sp.members) for sp in self._species], dtype=np.int64)
         elites = elite_sizes(targets, sizes, champion, s.elitism_proportion)
 
@@ -249,6 +263,7 @@ class Population:
             "rng": _rng_state(self.rng),
             "best_genome": None if self.best_genome is None else self.best_genome.to_dict(),
             "best_fitness": None if self.best_fitness == -math.inf else self.best_fitness,
+            "last_improvement": self.last_improvement,
         }
 
     @classmethod
@@ -278,6 +293,7 @@ class Population:
         self.best_genome = None if bg is None else Genome.from_dict(bg)
         bf = data.get("best_fitness")
         self.best_fitness = -math.inf if bf is None else float(bf)
+        self.last_improvement = int(data.get("last_improvement", 0))  # absent in checkpoints of older versions
         return self
 
 

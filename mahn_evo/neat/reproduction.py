@@ -13,6 +13,9 @@ Original rules (section 8) and the deliberate deviations:
   (capped at offspring), the rest sexual.  Python's ``round`` is round-half-even, like C#'s Math.Round.
 - parents are roulette-selected (fitness-proportionate, one clean wheel) among the best round(0.8 * size) members;
   interspecies mates (p = 0.01) are drawn from the union of every species' selection pool.
+- crossover children are not mutated (original).  ``crossover_mutation_probability`` > 0 (not the original; NEAT
+  2002 uses 0.8) gives such a child one mutation from the same roulette as the asexual offspring.
+- population stagnation (not the original, off by default; NEAT 2002): see :func:`top_two_targets`.
 """
 
 from __future__ import annotations
@@ -30,7 +33,7 @@ from .roulette import spin_cumulative
 from .settings import NeatSettings
 from .speciation import Species
 
-__all__ = ["apportion", "target_sizes", "elite_sizes", "Offspring", "make_offspring"]
+__all__ = ["apportion", "target_sizes", "top_two_targets", "elite_sizes", "Offspring", "make_offspring"]
 
 
 def apportion(shares: np.ndarray, total: int) -> np.ndarray:
@@ -67,6 +70,23 @@ def target_sizes(adjusted_means: np.ndarray, champion: int, total: int) -> np.nd
         donor = int(np.argmax(t))
         t[donor] -= 1
         t[champion] = 1
+    return t
+
+
+def top_two_targets(species_best: np.ndarray, champion: int, total: int) -> np.ndarray:
+    """NEAT 2002's population-stagnation rule: only the two best species reproduce, half the population each.
+
+    The champion species is always one of them; the other is the best of the rest by best member fitness (ties to
+    the earlier species).  With a single species it gets everything.
+    """
+    t = np.zeros(len(species_best), dtype=np.int64)
+    if len(species_best) == 1:
+        t[0] = total
+        return t
+    rest = [k for k in range(len(species_best)) if k != champion]
+    second = max(rest, key=lambda k: (float(species_best[k]), -k))
+    t[champion] = total - total // 2
+    t[second] = total // 2
     return t
 
 
@@ -155,6 +175,8 @@ def make_offspring(
                     out.append(asexual(k))
                     continue
             child = crossover(genomes[p1], float(fitness[p1]), genomes[p2], float(fitness[p2]), rng, settings)
+            if settings.crossover_mutation_probability > 0.0 and rng.random() < settings.crossover_mutation_probability:
+                child = mutate(child, rng, settings, tracker)
             out.append(Offspring(child, (sp.id, species_of[p2]) if species_of[p2] != sp.id else (sp.id,)))
     return out
 

@@ -45,6 +45,14 @@ class NeatSettings:
     #: Probability of including the less-fit parent's disjoint/excess genes (one coin per mating).
     disjoint_excess_recombine_probability: float = 0.1
 
+    #: Probability that a crossover child also gets one mutation (the mutation roulette below).  0 is the
+    #: original (SharpNEAT 1.0 never mutates after crossover); NEAT 2002 mutates 80 % of them (mate_only_prob 0.2).
+    crossover_mutation_probability: float = 0.0
+    #: When > 0: if the best fitness of the whole population has not improved for more than this many generations,
+    #: only the two best species reproduce (half the population each) and the counter restarts (NEAT 2002's
+    #: rule with 20).  0 (the original) disables it.
+    population_stagnation_generations: int = 0
+
     # --- mutation roulette (one operator per asexual offspring) -----------------------------------------------
     mutate_weights_probability: float = 0.96
     add_connection_probability: float = 0.03
@@ -77,6 +85,9 @@ class NeatSettings:
     excess_coefficient: float = 1.0
     #: Multiplies the SUM (not the mean) of |weight differences| over matching genes, as in the original.
     weight_coefficient: float = 0.05
+    #: True: the weight term is weight_coefficient * MEAN |dw| over matching genes (NEAT 2002's W-bar) instead of
+    #: the sum.  False is the original.
+    weight_difference_mean: bool = False
     initial_compatibility_threshold: float = 8.0
     #: Desired species count range; ``None`` means population_size/10 - 2 and population_size/10 (48..50 at 500).
     species_count_min: int | None = None
@@ -125,6 +136,7 @@ class NeatSettings:
             "interspecies_mating_probability",
             "disjoint_excess_recombine_probability",
             "stagnation_penalty",
+            "crossover_mutation_probability",
         ):
             v = getattr(self, name)
             _check(_is_real(v) and 0.0 <= v <= 1.0, name, f"must be a number in [0, 1], got {v!r}")
@@ -183,6 +195,7 @@ class NeatSettings:
             "must be a bool",
         )
         _check(isinstance(self.evaluate_modules, bool), "evaluate_modules", "must be a bool")
+        _check(isinstance(self.weight_difference_mean, bool), "weight_difference_mean", "must be a bool")
         _check(
             isinstance(self.hidden_activations, tuple)
             and len(self.hidden_activations) > 0
@@ -205,6 +218,13 @@ class NeatSettings:
             "stagnation_generations",
             "must be an int >= 0",
         )
+        _check(
+            isinstance(self.population_stagnation_generations, int)
+            and not isinstance(self.population_stagnation_generations, bool)
+            and self.population_stagnation_generations >= 0,
+            "population_stagnation_generations",
+            "must be an int >= 0",
+        )
         lo = self.species_count_min if self.species_count_min is not None else max(1, n // 10 - 2)
         hi = self.species_count_max if self.species_count_max is not None else max(1, n // 10)
         _check(isinstance(lo, int) and lo >= 1, "species_count_min", f"must be an int >= 1, got {lo!r}")
@@ -219,12 +239,19 @@ class NeatSettings:
         return self._resolved
 
     def to_dict(self) -> dict[str, Any]:
-        """Plain JSON-able dict of the constructor fields (tuples become lists)."""
+        """Plain JSON-able dict of the constructor fields (tuples become lists).
+
+        Fields added after the first release (:data:`LATER_FIELDS`) are written only when they differ from their
+        default, so a configuration or checkpoint written before they existed still compares equal to one written
+        now with the same behaviour (the trainer refuses to resume a run whose configuration differs).
+        """
         out: dict[str, Any] = {}
         for f in dataclasses.fields(self):
             if not f.init:
                 continue
             v = getattr(self, f.name)
+            if f.name in LATER_FIELDS and v == f.default:
+                continue
             out[f.name] = list(v) if isinstance(v, tuple) else v
         return out
 
@@ -245,6 +272,12 @@ class NeatSettings:
     def replace(self, **changes: Any) -> "NeatSettings":
         """A copy with some fields changed (validated again)."""
         return self.from_mapping({**self.to_dict(), **changes})
+
+
+#: Settings added after checkpoints of the original-system runs were written; see :meth:`NeatSettings.to_dict`.
+LATER_FIELDS = frozenset(
+    {"crossover_mutation_probability", "population_stagnation_generations", "weight_difference_mean"}
+)
 
 
 def _is_real(v: Any) -> bool:

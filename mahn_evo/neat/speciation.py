@@ -3,7 +3,8 @@
 Rules (original system, section 8):
 
 - distance = c_disjoint * #disjoint + c_excess * #excess + c_weight * SUM |dw| over matching genes (a sum, no
-  normalisation by genome size); a genome is compatible with a species if distance < threshold;
+  normalisation by genome size; ``weight_difference_mean`` uses the mean instead, as NEAT 2002 does); a genome is
+  compatible with a species if distance < threshold;
 - a species' representative is its current first member (after trimming: its best elite; during a full
   re-speciation: the first genome placed in it);
 - an offspring tries its parent species 1, then parent species 2, then every other species in order, and founds a
@@ -53,6 +54,8 @@ def compatibility_distance(a: Genome, b: Genome, settings: NeatSettings) -> floa
     excess = int(np.count_nonzero(a.innov > max_b)) + int(np.count_nonzero(b.innov > max_a))
     disjoint = a.n_connections + b.n_connections - 2 * m - excess
     wsum = float(np.sum(np.abs(a.weight[ia] - b.weight[ib]))) if m else 0.0
+    if settings.weight_difference_mean and m:
+        wsum /= m
     return settings.disjoint_coefficient * disjoint + settings.excess_coefficient * excess + settings.weight_coefficient * wsum
 
 
@@ -141,6 +144,8 @@ class RepresentativeIndex:
         pk = self._p[:k, idx]
         m = pk.sum(axis=1)
         wsum = (np.abs(self._w[:k, idx] - g.weight) * pk).sum(axis=1)
+        if s.weight_difference_mean:
+            wsum = wsum / np.maximum(m, 1)
         n_g = g.n_connections
         nonmatch = n_g + self._n[:k] - 2 * m
         if self._same_coeff:
