@@ -32,6 +32,7 @@ class ExperimentPlan:
     top: int = 5  # most general solutions (from distinct runs) per mode that get the transfer tests
     general_episodes: int = 25  # noisy episodes of the generalisation test
     transfer_episodes: int = 10  # noisy episodes per transfer test
+    replays: int = 1  # most general solutions per mode filmed in each protocol and map (GIFs)
     max_cycles: int = 1364  # shorter only for smoke tests
     signal_tick: int = 690
     neat: Mapping[str, Any] = field(default_factory=dict)  # NeatSettings overrides (e.g. from a config file)
@@ -48,7 +49,7 @@ class ExperimentPlan:
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, int) or v < 1:
                 raise ValueError(f"{name} must be a positive integer, got {v!r}")
-        for name in ("seed", "after_solved"):
+        for name in ("seed", "after_solved", "replays"):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, int) or v < 0:
                 raise ValueError(f"{name} must be a non-negative integer, got {v!r}")
@@ -103,7 +104,7 @@ class ExperimentPlan:
         if path.exists():
             saved = ExperimentPlan.load(out)
             a, b = saved.to_dict(), self.to_dict()
-            differing = sorted(k for k in a if a[k] != b[k] and k not in ("runs", "top", "general_episodes", "transfer_episodes"))
+            differing = sorted(k for k in a if a[k] != b[k] and k not in ("runs", "top", "general_episodes", "transfer_episodes", "replays"))
             if differing:
                 raise ValueError(f"{str(out)!r} holds an experiment with a different plan ({differing}); "
                                  "use another --out or the saved settings")

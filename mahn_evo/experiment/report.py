@@ -15,7 +15,7 @@ from ..files import atomic_write_csv, atomic_write_json, atomic_write_text, vers
 from ..plots import ROBOT_COLOURS, _mpl, draw_world
 from .plan import ExperimentPlan
 from .table import PAPER, RunRecord, curves, fisher, load_runs, mode_table
-from .transfer import TRANSFER_MAPS, most_general, trajectories, transfer_tests
+from .transfer import TRANSFER_MAPS, most_general, replays, trajectories, transfer_tests
 
 MODE_COLOURS = {"situational": "#0f9d58", "standard": "#4285f4"}
 
@@ -32,8 +32,13 @@ def write_results(plan: ExperimentPlan, out: "str | Path", runs_wall_seconds: fl
         for e in general[mode]:
             e["transfer"] = transfer_tests(Champion.load(out / e["file"]), plan)
     figures = _figures(plan, out, runs, general)
+    films = []
+    for mode, entries in general.items():
+        for e in entries[:plan.replays]:
+            films += [str(p.relative_to(out)) for p in replays(Champion.load(out / e["file"]), out / "replays",
+                                                               f"{mode}_{e['run']}", seed=plan.seed)]
     results = {"plan": plan.to_dict(), "table": table, "fisher": test, "most_general": general,
-               "runs": [r.to_dict() for r in runs], "paper": PAPER, "figures": figures,
+               "runs": [r.to_dict() for r in runs], "paper": PAPER, "figures": figures, "replays": films,
                "last_invocation_run_seconds": round(runs_wall_seconds, 1)}
     atomic_write_json(out / "results.json", versioned("experiment_results", results))
     header = list(runs[0].to_dict()) if runs else []
@@ -108,6 +113,10 @@ def markdown(results: dict[str, Any]) -> str:
     lines += ["", f"Paper: {PAPER['transfer']}.", "", "## Figures", ""]
     for f in results["figures"]:
         lines.append(f"![{Path(f).stem}]({f})")
+    if results.get("replays"):
+        lines += ["", "## Replays", "", "The most general solution of each mode, exact (no noise):", ""]
+        for f in results["replays"]:
+            lines.append(f"- [{Path(f).stem}]({f})")
     lines += ["", "## Runs", "", "| run | finished | generations | solved | generations to solve | best fitness | "
               "seconds |", "|---|---|---|---|---|---|---|"]
     for r in results["runs"]:

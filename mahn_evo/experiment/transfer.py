@@ -74,6 +74,23 @@ def transfer_tests(champ: Champion, plan: ExperimentPlan) -> dict[str, Any]:
     return out
 
 
+def replays(champ: Champion, folder: Path, stem: str, seed: int = 0) -> list[Path]:
+    """GIFs of the team in each protocol on each transfer map (exact, no noise)."""
+    from ..plots import save_gif
+
+    written = []
+    for m in TRANSFER_MAPS:
+        path = folder / f"{stem}_{m}_training.gif"
+        evaluate_champion(champ, map=m, seed=seed, video=path, video_every=6)
+        written.append(path)
+        frames: list = []
+        sequential_episode(_policy(champ), map=m, seed=seed, frames=frames, frame_every=12)
+        path = folder / f"{stem}_{m}_sequential.gif"
+        save_gif(frames, path, fps=15)
+        written.append(path)
+    return written
+
+
 def trajectories(champ: Champion, seed: int = 0) -> dict[str, tuple[np.ndarray, Optional[int]]]:
     """Paths for the figure: (T, R, >=2) per map and protocol, with the signal tick where there is one."""
     paths: dict[str, tuple[np.ndarray, Optional[int]]] = {}

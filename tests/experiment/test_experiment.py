@@ -14,7 +14,7 @@ from mahn_evo.experiment.table import RunRecord, fisher, mode_table
 from mahn_evo.trainer import Trainer
 
 SMALL = dict(runs=2, seed=5, generations=3, population=16, max_cycles=240, signal_tick=120, general_episodes=3,
-             transfer_episodes=2, top=2)
+             transfer_episodes=1, top=1, replays=0)
 
 
 def _rows(run_dir: Path) -> list[list[str]]:
@@ -68,14 +68,14 @@ def test_table_and_fisher_on_the_papers_counts():
 
 def test_small_experiment_end_to_end_and_report_only(tmp_path):
     out = tmp_path / "exp"
-    plan = ExperimentPlan(**SMALL)
+    plan = ExperimentPlan(**{**SMALL, "replays": 1})
     results = run_experiment(plan, out, workers=2, log=_quiet)
     saved = json.loads((out / "results.json").read_text())
     assert saved["kind"] == "experiment_results" and saved["table"] == json.loads(json.dumps(results["table"]))
     for mode in plan.modes:
         t = results["table"][mode]
         assert t["runs_finished"] == 2 and t["runs_in_progress"] == 0
-        assert len(results["most_general"][mode]) == 2
+        assert len(results["most_general"][mode]) == 1
         for e in results["most_general"][mode]:
             assert set(e["transfer"]) == {"plus", "asymmetric_plus", "transfers"}
             assert (out / e["file"]).exists()
@@ -87,6 +87,9 @@ def test_small_experiment_end_to_end_and_report_only(tmp_path):
     assert "| situational | 2 | 0 |" in md and "Fisher's exact test" in md
     for fig in results["figures"]:
         assert (out / fig).stat().st_size > 1000
+    assert len(results["replays"]) == 2 * 2 * 2  # modes x maps x protocols
+    for film in results["replays"]:
+        assert (out / film).stat().st_size > 10000 and film in md
     with open(out / "runs.csv") as f:
         assert len(list(csv.DictReader(f))) == 4
     # --report-only reads the saved plan and starts nothing
