@@ -17,6 +17,13 @@ from typing import Any, Iterable, Mapping, Sequence
 FORMAT_VERSION = 1
 
 
+def _default_mode() -> int:
+    """The mode `open()` would give a new file (0666 minus the umask)."""
+    umask = os.umask(0)
+    os.umask(umask)
+    return 0o666 & ~umask
+
+
 def atomic_write_text(path: "str | Path", text: str) -> None:
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -25,6 +32,7 @@ def atomic_write_text(path: "str | Path", text: str) -> None:
         with os.fdopen(fd, "w", encoding="utf-8", newline="") as f:
             f.write(text)
             f.flush()
+            os.fchmod(f.fileno(), _default_mode())  # mkstemp's 0600 would hide results from collaborators
             os.fsync(f.fileno())
         os.replace(tmp, path)
     except BaseException:

@@ -137,3 +137,18 @@ def test_after_solved_keeps_running_and_may_change_on_resume(tmp_path):
         Trainer(small(generations=50, seed=9, stop_when_solved=True), tmp_path / "r", resume=True)
     with pytest.raises(ValueError, match="after_solved"):
         small(after_solved=-1)
+
+
+def test_atomic_writes_leave_no_temp_files_and_normal_permissions(tmp_path):
+    import os
+
+    from mahn_evo.files import atomic_write_json, read_versioned_json, versioned
+
+    path = tmp_path / "x.json"
+    atomic_write_json(path, versioned("thing", {"a": 1}))
+    atomic_write_json(path, versioned("thing", {"a": 2}))
+    assert read_versioned_json(path, "thing")["a"] == 2
+    assert [p.name for p in tmp_path.iterdir()] == ["x.json"]
+    umask = os.umask(0)
+    os.umask(umask)
+    assert path.stat().st_mode & 0o777 == 0o666 & ~umask
