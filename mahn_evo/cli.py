@@ -111,6 +111,12 @@ def cmd_experiment(args) -> int:
                           after_solved=args.after_solved, top=args.top, general_episodes=args.general_episodes,
                           transfer_episodes=args.transfer_episodes, max_cycles=args.max_cycles,
                           signal_tick=args.signal_tick, neat=neat)
+    import signal
+
+    def _terminate(signum, frame):  # `kill PID` stops the workers too, like Ctrl-C
+        raise KeyboardInterrupt
+
+    signal.signal(signal.SIGTERM, _terminate)
     try:
         results = run_experiment(plan, args.out, backend=args.backend, workers=args.workers, address=args.address,
                                  analyse=not args.no_analysis, run=not args.report_only,

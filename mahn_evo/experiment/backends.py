@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import os
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from concurrent.futures.process import BrokenProcessPool
 from multiprocessing import get_context
 from pathlib import Path
 from typing import Any, Callable, Optional, Sequence
@@ -41,6 +42,16 @@ def run_one(config: dict[str, Any], run_dir: str, threads: int = 1) -> dict[str,
     return trainer.run()
 
 
+def _stop_workers(pool: ProcessPoolExecutor) -> None:
+    procs = list((getattr(pool, "_processes", None) or {}).values())
+    pool.shutdown(wait=False, cancel_futures=True)
+    for proc in procs:
+        if proc.is_alive():
+            proc.terminate()
+    for proc in procs:
+        proc.join(timeout=5)
+
+
 def _threads_per_run(workers: int) -> int:
     return max(1, (os.cpu_count() or 1) // max(1, workers))
 
@@ -61,23 +72,29 @@ def run_local(tasks: Sequence[Task], workers: int, on_done: Optional[Callable[[s
             if on_done:
                 on_done(name, results[name])
     else:
-        with ProcessPoolExecutor(max_workers=workers, mp_context=get_context("spawn")) as pool:
+        pool = ProcessPoolExecutor(max_workers=workers, mp_context=get_context("spawn"))
+        try:
             pending = {pool.submit(run_one, cfg, folder, threads): name for name, cfg, folder in tasks}
-            try:
-                while pending:
-                    done, _ = wait(pending, return_when=FIRST_COMPLETED)
-                    for fut in done:
-                        name = pending.pop(fut)
-                        try:
-                            results[name] = fut.result()
-                        except Exception as exc:
-                            errors[name] = f"{type(exc).__name__}: {exc}"
-                            continue
-                        if on_done:
-                            on_done(name, results[name])
-            except KeyboardInterrupt:
-                pool.shutdown(wait=False, cancel_futures=True)
-                raise
+            while pending:
+                # a timeout keeps the main process responsive to Ctrl-C / SIGTERM while runs go on
+                done, _ = wait(pending, timeout=1.0, return_when=FIRST_COMPLETED)
+                for fut in done:
+                    name = pending.pop(fut)
+                    try:
+                        results[name] = fut.result()
+                    except BrokenProcessPool as exc:
+                        raise RuntimeError("a worker process died (killed, or out of memory); every run's last "
+                                           "finished generation is saved: run the same command again to resume"
+                                           ) from exc
+                    except Exception as exc:
+                        errors[name] = f"{type(exc).__name__}: {exc}"
+                        continue
+                    if on_done:
+                        on_done(name, results[name])
+        except BaseException:
+            _stop_workers(pool)  # runs checkpoint atomically, so stopping mid-generation loses only that one
+            raise
+        pool.shutdown()
     _raise_errors(errors)
     return results
 
