@@ -17,11 +17,14 @@ def _train_parser(sub) -> None:
     p.add_argument("--generations", type=int, help="generations to run (default 1000, as the paper)")
     p.add_argument("--pop", type=int, help="population size (default 500, as the paper)")
     p.add_argument("--seed", type=int, help="the run's only seed (default 0)")
-    p.add_argument("--init", choices=INITS, help="initial population: minimal (default; every CPPN input wired to both outputs, so teams differ from generation 0) or iros2011 (the original seed genome, whose x1, x2, z paths are inert at first)")
+    p.add_argument("--init", choices=INITS, help="initial population: iros2011 (default: the paper's seed genome, "
+                                                 "whose sign(z)*x modules make mirror-symmetric teams) or minimal "
+                                                 "(every CPPN input wired to both outputs)")
     p.add_argument("--map", help="training map (default plus)")
     p.add_argument("--episodes", type=int, help="episodes per evaluation (default 1; >1 only with noise)")
-    p.add_argument("--evaluate-modules", action="store_true", default=None,
-                   help="evaluate the seed's Multiply modules (the 'intended behaviour' ablation)")
+    p.add_argument("--evaluate-modules", action=argparse.BooleanOptionalAction, default=None,
+                   help="evaluate the seed's Multiply modules, as the paper describes them (default); "
+                        "--no-evaluate-modules reproduces the original code, where they output 0")
     p.add_argument("--stop-when-solved", action="store_true", default=None, help="stop at the first solution")
     p.add_argument("--after-solved", type=int, metavar="G",
                    help="with --stop-when-solved, run G more generations so the archive gathers alternative "
@@ -73,7 +76,8 @@ def _experiment_parser(sub) -> None:
     p.add_argument("--generations", type=int, default=d.generations, help="at most (default %(default)s)")
     p.add_argument("--pop", type=int, default=d.population, help="population (default %(default)s)")
     p.add_argument("--init", choices=INITS, default=d.init, help="initial population (default %(default)s)")
-    p.add_argument("--evaluate-modules", action="store_true", help="evaluate the seed's Multiply modules")
+    p.add_argument("--evaluate-modules", action=argparse.BooleanOptionalAction, default=d.evaluate_modules,
+                   help="evaluate the seed's Multiply modules (default %(default)s)")
     p.add_argument("--map", default=d.map, help="training map (default %(default)s)")
     p.add_argument("--after-solved", type=int, default=d.after_solved,
                    help="generations a run continues after its first solution, so the generalisation test has "

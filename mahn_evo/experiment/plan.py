@@ -25,8 +25,8 @@ class ExperimentPlan:
     seed: int = 1  # run i of every mode uses seed + i (paired seeds across modes)
     generations: int = 1000
     population: int = 500
-    init: str = "minimal"
-    evaluate_modules: bool = False
+    init: str = "iros2011"  # the trainer's defaults (see TrainConfig)
+    evaluate_modules: bool = True
     map: str = "plus"
     after_solved: int = 50  # generations kept after the first solution, for the generalisation test
     top: int = 5  # most general solutions (from distinct runs) per mode that get the transfer tests

@@ -119,6 +119,19 @@ def test_evolution_makes_progress():
         rows = t.rows
     first, last = rows[0][2], max(r[4] for r in rows)
     assert last > first + 0.2, (first, last)
+    assert last > 2.0232671157474424 + 0.5  # well above the all-forward team
+
+
+def test_default_init_makes_progress():
+    """The default (the paper's seed genome, modules evaluated) starts as the all-forward team's 2.0233 and
+    must leave it within a small budget."""
+    import tempfile
+
+    assert (TrainConfig().init, TrainConfig().evaluate_modules) == ("iros2011", True)
+    with tempfile.TemporaryDirectory() as d:
+        t = Trainer(TrainConfig(generations=15, seed=2).with_overrides(pop=80), d)
+        t.run()
+    assert max(r[4] for r in t.rows) > 2.5
 
 
 def test_after_solved_keeps_running_and_may_change_on_resume(tmp_path):
