@@ -154,6 +154,20 @@ def is_size_9(wt_ih):
     return wt_ih.shape[3] == 7 and wt_ih.shape[4] == 9
 
 
+@njit(cache=True, error_model="numpy", inline="always")
+def _hidden_step_9(b, r, k, obs, wt_ih, wt_hh, b_h, hid, tmp, ih_at, hh_at, obs_at, hid_at):
+    """One synchronous update of the 9 hidden nodes: nodes 0..7 as one vector, node 8 alone."""
+    _hidden_sums_8(tmp, wt_ih, ih_at, obs, obs_at, wt_hh, hh_at, hid, hid_at)
+    acc = np.float32(0.0)
+    for j in range(7):
+        acc += wt_ih[b, r, k, j, 8] * obs[b, r, j]
+    for m in range(9):
+        acc += wt_hh[b, r, k, m, 8] * hid[b, r, m]
+    tmp[8] = acc
+    for i in range(9):
+        hid[b, r, i] = _sigmoid(tmp[i] + b_h[b, r, k, i])
+
+
 @njit(cache=True, error_model="numpy")
 def network_action_9(b, r, obs, rflag_signal, wt_ih, wt_hh, wt_ho, b_h, b_o, hid, out, brain, tmp):
     """`network_action` for 7 inputs and 9 hidden nodes (see `is_size_9`): the same float32 operations in the
@@ -181,31 +195,15 @@ def network_action_9(b, r, obs, rflag_signal, wt_ih, wt_hh, wt_ho, b_h, b_o, hid
     hh_at = unit * 81
     obs_at = (b * obs.shape[1] + r) * obs.shape[2]
     hid_at = (b * hid.shape[1] + r) * hid.shape[2]
-    # step 1: hidden nodes only (nodes 0..7 as one vector, node 8 alone)
-    _hidden_sums_8(tmp, wt_ih, ih_at, obs, obs_at, wt_hh, hh_at, hid, hid_at)
-    acc = np.float32(0.0)
-    for j in range(7):
-        acc += wt_ih[b, r, k, j, 8] * obs[b, r, j]
-    for m in range(9):
-        acc += wt_hh[b, r, k, m, 8] * hid[b, r, m]
-    tmp[8] = acc
-    for i in range(9):
-        hid[b, r, i] = _sigmoid(tmp[i] + b_h[b, r, k, i])
+    # step 1: hidden nodes only
+    _hidden_step_9(b, r, k, obs, wt_ih, wt_hh, b_h, hid, tmp, ih_at, hh_at, obs_at, hid_at)
     # step 2: outputs (from the hidden state of step 1), then hidden nodes
     for q in range(3):
         acc = np.float32(0.0)
         for m in range(9):
             acc += wt_ho[b, r, k, m, q] * hid[b, r, m]
         tmp[9 + q] = acc
-    _hidden_sums_8(tmp, wt_ih, ih_at, obs, obs_at, wt_hh, hh_at, hid, hid_at)
-    acc = np.float32(0.0)
-    for j in range(7):
-        acc += wt_ih[b, r, k, j, 8] * obs[b, r, j]
-    for m in range(9):
-        acc += wt_hh[b, r, k, m, 8] * hid[b, r, m]
-    tmp[8] = acc
-    for i in range(9):
-        hid[b, r, i] = _sigmoid(tmp[i] + b_h[b, r, k, i])
+    _hidden_step_9(b, r, k, obs, wt_ih, wt_hh, b_h, hid, tmp, ih_at, hh_at, obs_at, hid_at)
     for q in range(3):
         out[b, r, q] = _sigmoid(tmp[9 + q] + b_o[b, r, k, q])
     return winner_take_all(out[b, r, 0], out[b, r, 1], out[b, r, 2])
