@@ -36,7 +36,7 @@ def write_results(plan: ExperimentPlan, out: "str | Path", runs_wall_seconds: fl
     for mode, entries in general.items():
         for e in entries[:plan.replays]:
             films += [str(p.relative_to(out)) for p in replays(Champion.load(out / e["file"]), out / "replays",
-                                                               f"{mode}_{e['run']}", seed=plan.seed)]
+                                                               e["run"], seed=plan.seed)]
     results = {"plan": plan.to_dict(), "table": table, "fisher": test, "most_general": general,
                "runs": [r.to_dict() for r in runs], "paper": PAPER, "figures": figures, "replays": films,
                "last_invocation_run_seconds": round(runs_wall_seconds, 1)}
