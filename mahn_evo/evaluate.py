@@ -35,7 +35,8 @@ def task_params(noise: str = "none", **overrides: Any) -> TaskParams:
 
 def evaluate_champion(champion: "Champion | str | Path", map: str = "plus", engine: str = "kinematic",
                       episodes: int = 1, params: Optional[TaskParams] = None, seed: int = 0,
-                      video: "str | Path | None" = None, video_every: int = 4) -> dict[str, Any]:
+                      video: "str | Path | None" = None, video_every: int = 4, video_scale: float = 1.0
+                      ) -> dict[str, Any]:
     """Per-episode and mean team fitness and `solved`; writes a GIF of the first episode if `video`."""
     champ = champion if isinstance(champion, Champion) else Champion.load(champion)
     params = params or TaskParams()
@@ -65,7 +66,7 @@ def evaluate_champion(champion: "Champion | str | Path", map: str = "plus", engi
             if frames is not None:
                 from .plots import save_gif
 
-                save_gif(frames, video, fps=max(1, int(30 / video_every)))
+                save_gif(frames, video, fps=max(1, int(30 / video_every)), scale=video_scale)
             env.close()
     return {"champion_mode": champ.mode, "map": map, "engine": engine, "episodes": episodes, "seed": seed,
             "params": params.to_dict(), "fitness": float(np.mean(fits)), "solved": bool(all(solved)),

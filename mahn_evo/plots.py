@@ -85,7 +85,7 @@ def trajectory_plot(world: World, trajectories: np.ndarray, out_png: "str | Path
     plt.close(fig)
 
 
-def save_gif(frames: Sequence[np.ndarray], out_path: "str | Path", fps: int = 15) -> None:
+def save_gif(frames: Sequence[np.ndarray], out_path: "str | Path", fps: int = 15, scale: float = 1.0) -> None:
     """Write RGB frames as an animated GIF (Pillow), atomically.
 
     One shared palette (taken from the first, middle and last frames, so colours that appear late are in it)
@@ -98,7 +98,11 @@ def save_gif(frames: Sequence[np.ndarray], out_path: "str | Path", fps: int = 15
         raise ValueError("no frames to write")
     sample = np.concatenate([frames[0], frames[len(frames) // 2], frames[-1]], axis=0)
     palette = Image.fromarray(sample).quantize(colors=64, method=Image.Quantize.FASTOCTREE)
-    images = [Image.fromarray(f).quantize(palette=palette, dither=Image.Dither.NONE) for f in frames]
+    images = [Image.fromarray(f) for f in frames]
+    if scale != 1.0:  # smaller files for docs; nearest keeps the palette's flat colours
+        size = (max(1, round(images[0].width * scale)), max(1, round(images[0].height * scale)))
+        images = [im.resize(size, Image.Resampling.NEAREST) for im in images]
+    images = [im.quantize(palette=palette, dither=Image.Dither.NONE) for im in images]
     out_path = Path(out_path)
     out_path.parent.mkdir(parents=True, exist_ok=True)
     tmp = out_path.with_suffix(out_path.suffix + ".tmp")

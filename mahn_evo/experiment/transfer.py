@@ -81,12 +81,12 @@ def replays(champ: Champion, folder: Path, stem: str, seed: int = 0) -> list[Pat
     written = []
     for m in TRANSFER_MAPS:
         path = folder / f"{stem}_{m}_training.gif"
-        evaluate_champion(champ, map=m, seed=seed, video=path, video_every=6)
+        evaluate_champion(champ, map=m, seed=seed, video=path, video_every=6, video_scale=0.6)
         written.append(path)
         frames: list = []
         sequential_episode(_policy(champ), map=m, seed=seed, frames=frames, frame_every=12)
         path = folder / f"{stem}_{m}_sequential.gif"
-        save_gif(frames, path, fps=15)
+        save_gif(frames, path, fps=15, scale=0.6)
         written.append(path)
     return written
 
