@@ -32,10 +32,15 @@ class Curve:
     fitness: np.ndarray
     solved: np.ndarray
     source: str
+    #: a run that stopped because it solved the task keeps its final values at larger budgets (its best team
+    #: would still be the best); any other run is unknown (NaN) beyond the budget it was given
+    holds_after_end: bool = False
 
     def at(self, budget: float) -> tuple[float, float]:
         """Best-so-far values at a budget (NaN before the run's first record or beyond its end)."""
         if budget > self.budget[-1] * 1.0001:
+            if self.holds_after_end:
+                return float(self.fitness[-1]), float(self.solved[-1])
             return math.nan, math.nan
         i = int(np.searchsorted(self.budget, budget, side="right")) - 1
         if i < 0:
@@ -81,7 +86,8 @@ def evo_curve(run_dir: "str | Path", ticks: int = TICKS, robots: int = ROBOTS) -
     mode = summary.get("mode", "unknown")
     b, f, s = _best_so_far([float(r["evaluations"]) * ticks * robots for r in rows],
                            [float(r["best_fitness"]) for r in rows], [_truthy(r["solved"]) for r in rows])
-    return Curve(f"hyperneat_{mode}", summary.get("seed", run_dir.name), b, f, s, str(run_dir))
+    return Curve(f"hyperneat_{mode}", summary.get("seed", run_dir.name), b, f, s, str(run_dir),
+                 holds_after_end=bool(summary.get("solved")) and bool(s[-1]))
 
 
 def budget_grid(curves: Sequence[Curve], points: int = 12) -> np.ndarray:

@@ -20,11 +20,11 @@ def _rl_run(root, algo, seed, rows):
     return d
 
 
-def _evo_run(root, mode, seed, rows):
+def _evo_run(root, mode, seed, rows, solved=False):
     d = root / f"evo_{mode}_{seed}"
     write_csv(d / "log.csv", ["generation", "evaluations", "best_fitness", "solved"],
               [{"generation": g, "evaluations": e, "best_fitness": f, "solved": v} for g, (e, f, v) in enumerate(rows)])
-    write_json(d / "summary.json", {"mode": mode, "seed": seed})
+    write_json(d / "summary.json", {"mode": mode, "seed": seed, "solved": solved})
     return d
 
 
@@ -34,6 +34,14 @@ def test_evo_budget_is_teams_times_ticks_times_robots(tmp_path) -> None:
     assert c.method == "hyperneat_situational"
     assert list(c.budget) == [100 * 1364 * 3, 200 * 1364 * 3]
     assert evo_budget([d]) == 200 * 1364 * 3
+
+
+def test_a_run_stopped_at_its_solution_keeps_it_at_larger_budgets(tmp_path) -> None:
+    stopped = evo_curve(_evo_run(tmp_path, "situational", 0, [(100, 5.0, False), (200, 130.0, True)], solved=True))
+    cut = evo_curve(_evo_run(tmp_path, "standard", 0, [(100, 5.0, False), (200, 7.0, False)]))
+    far = 10 * 200 * 1364 * 3
+    assert stopped.at(far) == (130.0, 1.0)  # stopped because it solved: still solved with more budget
+    assert math.isnan(cut.at(far)[0])  # never given that budget: no claim
 
 
 def test_best_so_far_and_step_lookup(tmp_path) -> None:
