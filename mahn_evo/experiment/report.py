@@ -147,7 +147,7 @@ def _figures(plan: ExperimentPlan, out: Path, runs: list[RunRecord], general: di
     ax.set(xlabel="generation", ylabel="best fitness so far", title="best fitness per mode (median, 25–75%)")
     ax.set_yscale("symlog", linthresh=10)
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=8, loc="upper left")
+    ax.legend(fontsize=8, loc="lower right")
     fig.tight_layout()
     fig.savefig(fig_dir / "fitness_curves.png")
     ax2.set(xlabel="generation", ylabel="fraction of finished runs solved", ylim=(-0.02, 1.02),
