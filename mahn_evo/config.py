@@ -28,7 +28,7 @@ class TrainConfig:
     seed: int = 0
     #: the paper's seed genome (bias, y1, y2, S wired in; sign(z)*x1 and sign(z)*x2 modules for mirror-symmetric
     #: teams) with its Multiply modules evaluated, as the paper describes them.  At paper scale it reaches the
-    #: "every POI patrolled" plateau (fitness > 50) in 38-153 generations where `minimal` needed ~540 (seed 1);
+    #: "every POI patrolled" plateau (fitness > 50) by generation 29 where `minimal` needed ~540 (seed 1);
     #: see README "Training" for the numbers.
     init: str = "iros2011"
     map: str = "plus"
