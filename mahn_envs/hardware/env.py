@@ -37,7 +37,7 @@ from ..core import task as T
 from ..core.params import TaskParams
 from ..khepera import DEFAULT_MODEL, KheperaModel
 from ..maps import World, load_map
-from ..patrol_return.env import agent_names, coerce_action, policy_coordinate, task_spaces
+from ..patrol_return.env import agent_names, coerce_actions, policy_coordinate, task_spaces
 from . import protocol as P
 from .calibration import make_calibration
 from .clock import RealClock
@@ -401,15 +401,7 @@ class KheperaHardwareEnv(ParallelEnv):
             raise
 
     def _step(self, actions: dict):
-        if not isinstance(actions, dict):
-            raise ValueError(f"actions must be a dict {{agent: action}}, got {type(actions).__name__}")
-        for agent in actions:
-            if agent not in self.agent_index:
-                raise ValueError(f"action given for unknown agent {agent!r}; agents are {self.possible_agents}")
-        missing = [a for a in self.agents if a not in actions]
-        if missing:
-            raise ValueError(f"no action for agent(s) {missing}: every live agent must act each step")
-        acts = [coerce_action(a, actions[a]) for a in self.agents]
+        acts = coerce_actions(actions, self.agents, self.possible_agents)
         # 1. actions -> reflex -> wheel commands, to every robot
         motions, commands = [], []
         for k, a in enumerate(acts):

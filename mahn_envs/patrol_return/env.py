@@ -6,7 +6,7 @@ core's arrays, so it cannot disagree with the trainer or the RL vector env.
 from __future__ import annotations
 
 import numbers
-from typing import Any, Optional
+from typing import Any, Optional, Sequence
 
 import numpy as np
 from gymnasium import spaces
@@ -42,6 +42,20 @@ def coerce_action(agent: str, value: Any) -> int:
     if not 0 <= v <= 2:
         raise ValueError(f"action for {agent!r} must be 0 (left), 1 (forward) or 2 (right), got {v}")
     return v
+
+
+def coerce_actions(actions: Any, live_agents: Sequence[str], possible_agents: Sequence[str]) -> list[int]:
+    """A step's `{agent: action}` as ints in `live_agents` order; an unknown or missing agent, or a bad action,
+    is a ValueError naming it.  Shared by the simulated and the hardware env, so both refuse the same input."""
+    if not isinstance(actions, dict):
+        raise ValueError(f"actions must be a dict {{agent: action}}, got {type(actions).__name__}")
+    for agent in actions:
+        if agent not in possible_agents:
+            raise ValueError(f"action given for unknown agent {agent!r}; agents are {list(possible_agents)}")
+    missing = [a for a in live_agents if a not in actions]
+    if missing:
+        raise ValueError(f"no action for agent(s) {missing}: every live agent must act each step")
+    return [coerce_action(a, actions[a]) for a in live_agents]
 
 
 def task_spaces(world: World, n: int) -> tuple[spaces.Box, spaces.Discrete, spaces.Box]:
@@ -164,16 +178,8 @@ class PatrolReturnEnv(ParallelEnv):
     def step(self, actions: dict):
         if not self.agents:
             raise RuntimeError("step() called on a finished episode; call reset() first")
-        if not isinstance(actions, dict):
-            raise ValueError(f"actions must be a dict {{agent: action}}, got {type(actions).__name__}")
-        for agent in actions:
-            if agent not in self.agent_index:
-                raise ValueError(f"action given for unknown agent {agent!r}; agents are {self.possible_agents}")
-        missing = [a for a in self.agents if a not in actions]
-        if missing:
-            raise ValueError(f"no action for agent(s) {missing}: every live agent must act each step")
-        for agent in self.agents:
-            self._actions[self.agent_index[agent]] = coerce_action(agent, actions[agent])
+        for agent, a in zip(self.agents, coerce_actions(actions, self.agents, self.possible_agents)):
+            self._actions[self.agent_index[agent]] = a
         obs, reward, solved = self.engine.step(self._actions)
         done = self.sim.tick >= self.max_cycles
         observations = {a: obs[k].copy() for k, a in enumerate(self.agents)}
