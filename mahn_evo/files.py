@@ -6,6 +6,7 @@ mid-write leaves the previous file intact, never a truncated one.
 from __future__ import annotations
 
 import csv
+import functools
 import io
 import json
 import math
@@ -17,8 +18,10 @@ from typing import Any, Iterable, Mapping, Sequence
 FORMAT_VERSION = 1
 
 
+@functools.lru_cache(maxsize=1)
 def _default_mode() -> int:
-    """The mode `open()` would give a new file (0666 minus the umask)."""
+    """The mode `open()` would give a new file (0666 minus the umask).  Read once: reading the umask means
+    setting it, which other threads could see for an instant."""
     umask = os.umask(0)
     os.umask(umask)
     return 0o666 & ~umask
