@@ -37,7 +37,7 @@ from ..core import task as T
 from ..core.params import TaskParams
 from ..khepera import DEFAULT_MODEL, KheperaModel
 from ..maps import World, load_map
-from ..patrol_return.env import agent_names, coerce_actions, policy_coordinate, task_spaces
+from ..patrol_return.env import agent_names, coerce_actions, coerce_poses, policy_coordinate, task_spaces
 from . import protocol as P
 from .calibration import make_calibration
 from .clock import RealClock
@@ -354,16 +354,7 @@ class KheperaHardwareEnv(ParallelEnv):
         for k, a in enumerate(self.possible_agents):
             targets[a] = tuple(float(v) for v in self.world.starts[k]) if k < self.world.n_robots else None
         if poses is not None:
-            if not isinstance(poses, Mapping):
-                raise ValueError("options['poses'] must be a dict {agent: (x, y, heading)}")
-            for agent, pose in poses.items():
-                if agent not in self.agent_index:
-                    raise ValueError(f"options['poses'] names unknown agent {agent!r}; agents are "
-                                     f"{self.possible_agents}")
-                p = np.asarray(pose, dtype=np.float64)
-                if p.shape != (3,) or not np.all(np.isfinite(p)):
-                    raise ValueError(f"pose for {agent!r} must be finite (x, y, heading), got {pose!r}")
-                targets[agent] = tuple(float(v) for v in p)
+            targets.update(coerce_poses(poses, self.possible_agents))
         self.agents = []
         self._broadcast([P.STOP] * len(self._links))
         self._placement(dict(targets))

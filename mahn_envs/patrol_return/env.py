@@ -6,7 +6,7 @@ core's arrays, so it cannot disagree with the trainer or the RL vector env.
 from __future__ import annotations
 
 import numbers
-from typing import Any, Optional, Sequence
+from typing import Any, Mapping, Optional, Sequence
 
 import numpy as np
 from gymnasium import spaces
@@ -56,6 +56,24 @@ def coerce_actions(actions: Any, live_agents: Sequence[str], possible_agents: Se
     if missing:
         raise ValueError(f"no action for agent(s) {missing}: every live agent must act each step")
     return [coerce_action(a, actions[a]) for a in live_agents]
+
+
+def coerce_poses(poses: Any, possible_agents: Sequence[str]) -> dict[str, tuple[float, float, float]]:
+    """`reset(options={"poses": {agent: (x, y, heading)}})` checked the same way by the simulated and the
+    hardware env; whether a pose fits the map is the caller's check."""
+    if not isinstance(poses, Mapping):
+        raise ValueError("options['poses'] must be a dict {agent: (x, y, heading)}")
+    out = {}
+    for agent, pose in poses.items():
+        if agent not in possible_agents:
+            raise ValueError(f"options['poses'] names unknown agent {agent!r}; agents are {list(possible_agents)}")
+        p = np.asarray(pose, dtype=np.float64)
+        if p.shape != (3,):
+            raise ValueError(f"pose for {agent!r} must be (x, y, heading), got {pose!r}")
+        if not np.all(np.isfinite(p)):
+            raise ValueError(f"pose for {agent!r} is not finite: {pose!r}")
+        out[agent] = (float(p[0]), float(p[1]), float(p[2]))
+    return out
 
 
 def task_spaces(world: World, n: int) -> tuple[spaces.Box, spaces.Discrete, spaces.Box]:
@@ -153,15 +171,7 @@ class PatrolReturnEnv(ParallelEnv):
         if poses is not None:
             pose_array = self.sim.pose[0, :, :3].copy() if self.sim._reset_done else self.world.starts.copy()
             pose_array[:] = self.world.starts
-            if not isinstance(poses, dict):
-                raise ValueError("options['poses'] must be a dict {agent: (x, y, heading)}")
-            for agent, pose in poses.items():
-                if agent not in self.agent_index:
-                    raise ValueError(f"options['poses'] names unknown agent {agent!r}; agents are "
-                                     f"{self.possible_agents}")
-                p = np.asarray(pose, dtype=np.float64)
-                if p.shape != (3,):
-                    raise ValueError(f"pose for {agent!r} must be (x, y, heading), got {pose!r}")
+            for agent, p in coerce_poses(poses, self.possible_agents).items():
                 pose_array[self.agent_index[agent]] = p
         obs = self.engine.reset(sim_seed, pose_array)
         self.agents = list(self.possible_agents)
