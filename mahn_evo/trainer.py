@@ -13,8 +13,6 @@ Run folder:
 """
 from __future__ import annotations
 
-import csv
-import json
 import time
 from dataclasses import dataclass
 from pathlib import Path

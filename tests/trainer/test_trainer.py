@@ -2,7 +2,6 @@
 import csv
 import json
 
-import numpy as np
 import pytest
 
 from mahn_envs import BatchSim, patrol_return_v0
@@ -32,7 +31,7 @@ def test_same_seed_same_run(tmp_path):
     ra, rb = _log(tmp_path / "a"), _log(tmp_path / "b")
     assert [(r["best_fitness"], r["mean_fitness"], r["n_species"]) for r in ra] == \
            [(r["best_fitness"], r["mean_fitness"], r["n_species"]) for r in rb]
-    c = train(small(seed=4), tmp_path / "c")
+    train(small(seed=4), tmp_path / "c")
     assert [r["mean_fitness"] for r in _log(tmp_path / "c")] != [r["mean_fitness"] for r in ra]
 
 
