@@ -36,7 +36,10 @@ def run_one(config: dict[str, Any], run_dir: str, threads: int = 1) -> dict[str,
     resume = (out / "checkpoint.json").exists()
     trainer = Trainer(cfg, out, resume=resume)
     if resume and trainer.done() and (out / "summary.json").exists():
-        summary = json.loads((out / "summary.json").read_text())
+        try:
+            summary = json.loads((out / "summary.json").read_text())
+        except json.JSONDecodeError:
+            summary = {}  # a damaged summary is rewritten from the checkpoint below
         if summary.get("generations") == trainer.generation:
             return summary
     return trainer.run()
