@@ -51,6 +51,10 @@ def _eval_parser(sub) -> None:
                         "real-world protocol, robots called one at a time, robots see and bump each other")
     p.add_argument("--video", type=Path, help="write a GIF of the (first) episode")
     p.add_argument("--plot", type=Path, help="write a PNG of the trajectories of the (first) episode")
+    p.add_argument("--margins", action="store_true",
+                   help="also report how firmly the team decides (training protocol, first episode): the "
+                        "fraction of decisions that are exact ties or near-ties (< 0.001), a sign of a "
+                        "team that noise or real robots will break")
     p.add_argument("--json", action="store_true", help="print the result as JSON")
 
 
@@ -265,11 +269,20 @@ def cmd_eval(args) -> int:
                                params=params, seed=args.seed, video=args.video)
     if args.plot:
         _trajectory_png(args.champion, args.map, args.plot)
+    if args.margins:
+        from .margins import decision_margins
+
+        result["margins"] = decision_margins(args.champion, map=args.map, params=params, seed=args.seed)
     if args.json:
         print(json.dumps(result, indent=1))
     else:
         print(f"fitness {result['fitness']:.6f}  solved {result['solved']}  "
               f"({result['episodes']} episode(s), map {args.map}, engine {args.engine})")
+        if args.margins:
+            m = result["margins"]
+            print(f"decisions {m['decisions']}: {100 * m['tied_fraction']:.1f}% exact ties, "
+                  f"{100 * m['near_tie_fraction']:.1f}% near-ties (< 0.001); median margin "
+                  f"{m['median_margin']:.3g}, median top output {m['median_top_output']:.7f}")
     return 0
 
 

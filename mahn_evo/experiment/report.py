@@ -57,6 +57,11 @@ def _fmt(v: Any, digits: int = 1) -> str:
     return str(v)
 
 
+def _ties(entry: dict[str, Any]) -> str:
+    m = entry["transfer"].get("margins")  # absent in results written before margins were recorded
+    return f"{100 * m['tied_fraction']:.0f}% / {100 * m['near_tie_fraction']:.0f}%" if m else "n/a"
+
+
 def markdown(results: dict[str, Any]) -> str:
     plan, table, test = results["plan"], results["table"], results["fisher"]
     lines = ["# Experiment results", "",
@@ -88,9 +93,11 @@ def markdown(results: dict[str, Any]) -> str:
               "`training`: all robots called at tick 690 (team fitness, solved). `sequential`: the real-world "
               "protocol in the pymunk engine (robots called home one at a time, sent back out); success = every "
               f"robot reaches its post, returns and goes back out. Noisy columns: {plan['transfer_episodes']} "
-              "episodes with the generalisation noise.", ""]
-    head = "| mode | run | generation | solution | general: solved / mean fitness |"
-    sub = "|---|---|---|---|---|"
+              "episodes with the generalisation noise. Ties: the share of the team's decisions on the training "
+              "map that are exact ties of the top two outputs / near-ties (< 0.001), see `mahn-evo eval "
+              "--margins`.", ""]
+    head = "| mode | run | generation | solution | general: solved / mean fitness | ties |"
+    sub = "|---|---|---|---|---|---|"
     for m in TRANSFER_MAPS:
         head += f" {m} training | {m} noisy | {m} sequential | {m} seq. noisy |"
         sub += "---|---|---|---|"
@@ -98,7 +105,7 @@ def markdown(results: dict[str, Any]) -> str:
     for mode, entries in results["most_general"].items():
         for e in entries:
             row = (f"| {mode} | {e['run']} | {e['generation']} | {'yes' if e['solution'] else 'no'} | "
-                   f"{e['general_solved_fraction']:.2f} / {e['general_mean_fitness']:.1f} |")
+                   f"{e['general_solved_fraction']:.2f} / {e['general_mean_fitness']:.1f} | {_ties(e)} |")
             for m in TRANSFER_MAPS:
                 t = e["transfer"][m]
                 row += (f" {'solved' if t['training']['solved'] else 'not solved'} ({t['training']['fitness']:.1f})"
@@ -109,7 +116,7 @@ def markdown(results: dict[str, Any]) -> str:
         n_ok = sum(e["transfer"]["transfers"] for e in entries)
         if entries:
             lines.append(f"| {mode}: **{n_ok}/{len(entries)}** succeed in the sequential protocol on both maps |"
-                         + " |" * (4 + 4 * len(TRANSFER_MAPS)))
+                         + " |" * (5 + 4 * len(TRANSFER_MAPS)))
     lines += ["", f"Paper: {PAPER['transfer']}.", "", "## Figures", ""]
     for f in results["figures"]:
         lines.append(f"![{Path(f).stem}]({f})")

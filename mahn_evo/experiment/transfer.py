@@ -18,6 +18,7 @@ from mahn_envs.policy import ControllerPolicy
 from ..champion import Champion
 from ..evaluate import evaluate_champion, task_params
 from ..generalize import generalize
+from ..margins import decision_margins
 from ..protocols import sequential, sequential_episode
 from .plan import ExperimentPlan
 from .table import RunRecord
@@ -54,7 +55,8 @@ def _policy(champ: Champion) -> ControllerPolicy:
 
 
 def transfer_tests(champ: Champion, plan: ExperimentPlan) -> dict[str, Any]:
-    """Both protocols on both maps, exact (1 episode) and noisy (plan.transfer_episodes episodes)."""
+    """Both protocols on both maps, exact (1 episode) and noisy (plan.transfer_episodes episodes), and the
+    team's decision margins on the training map (a team that decides by ties will not survive noise)."""
     noisy = task_params("generalization")
     out: dict[str, Any] = {}
     for m in TRANSFER_MAPS:
@@ -71,6 +73,7 @@ def transfer_tests(champ: Champion, plan: ExperimentPlan) -> dict[str, Any]:
                                  "stages": float(np.mean(seq_noise["fitness"]))},
         }
     out["transfers"] = all(out[m]["sequential"]["success"] for m in TRANSFER_MAPS)
+    out["margins"] = decision_margins(champ, map=plan.map, seed=plan.seed)
     return out
 
 

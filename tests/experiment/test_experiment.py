@@ -77,7 +77,9 @@ def test_small_experiment_end_to_end_and_report_only(tmp_path):
         assert t["runs_finished"] == 2 and t["runs_in_progress"] == 0
         assert len(results["most_general"][mode]) == 1
         for e in results["most_general"][mode]:
-            assert set(e["transfer"]) == {"plus", "asymmetric_plus", "transfers"}
+            assert set(e["transfer"]) == {"plus", "asymmetric_plus", "transfers", "margins"}
+            m = e["transfer"]["margins"]
+            assert m["decisions"] > 0 and 0.0 <= m["tied_fraction"] <= m["near_tie_fraction"] <= 1.0
             assert (out / e["file"]).exists()
     for run in results["runs"]:
         assert run["finished"] and run["generations"] == 3
