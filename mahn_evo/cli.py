@@ -187,9 +187,7 @@ def cmd_train(args) -> int:
     if args.resume and (args.out / "config.json").exists() and not args.config:
         from .files import read_versioned_json
 
-        saved = read_versioned_json(args.out / "config.json", "config")
-        saved = {k: v for k, v in saved.items() if k not in ("kind", "version")}
-        base = TrainConfig.from_mapping(saved)
+        base = TrainConfig.from_saved(read_versioned_json(args.out / "config.json", "config"))
     config = base.with_overrides(**overrides)
     trainer = Trainer(config, args.out, resume=args.resume)
     prog, on_gen = _progress_printer(args.quiet, config.generations)

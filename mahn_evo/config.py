@@ -13,7 +13,7 @@ from typing import Any, Mapping
 
 from mahn_envs.core import TaskParams
 
-from .neat.settings import NeatSettings
+from .neat.settings import NeatSettings, with_legacy_values
 from .substrate import MODES
 
 INITS = ("iros2011", "minimal")
@@ -80,6 +80,13 @@ class TrainConfig:
         if "task" in kw:
             kw["task"] = TaskParams.from_mapping(kw["task"])
         return cls(**kw)
+
+    @classmethod
+    def from_saved(cls, data: Mapping[str, Any]) -> "TrainConfig":
+        """A configuration a run saved (config.json, checkpoint), read with the values it was run with: settings
+        whose default changed since are filled with their old value (see neat.settings.LEGACY_VALUES)."""
+        data = {k: v for k, v in data.items() if k not in ("kind", "version")}
+        return cls.from_mapping({**data, "neat": with_legacy_values(data.get("neat", {}))})
 
     def with_overrides(self, **changes: Any) -> "TrainConfig":
         """Apply CLI-style overrides; `pop` is a shortcut for neat.population_size."""

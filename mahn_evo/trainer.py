@@ -16,7 +16,7 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable, Optional
+from typing import Any, Callable, Optional
 
 import numpy as np
 
@@ -26,6 +26,7 @@ from .evaluator import TeamEvaluator
 from .files import atomic_write_csv, atomic_write_json, read_versioned_json, versioned
 from .neat.genome import Genome
 from .neat.population import Population
+from .neat.settings import with_legacy_values
 
 #: settings that only decide when a run ends; they may change when a run is resumed (e.g. more generations)
 STOPPING_RULES = ("generations", "stop_when_solved", "after_solved")
@@ -76,12 +77,18 @@ class Trainer:
     def _resume(self, ckpt: Path) -> None:
         data = read_versioned_json(ckpt, "checkpoint")
         saved = data["config"]
+        saved = {**saved, "neat": with_legacy_values(saved.get("neat", {}))}  # the values it was run with
         asked = self.config.to_dict()
         defaults = TrainConfig().to_dict()  # keys added after a checkpoint was written keep their defaults
         differing = sorted(k for k in asked if k not in STOPPING_RULES and saved.get(k, defaults[k]) != asked[k])
+        if "neat" in differing:  # name the NEAT settings, so the message says what to set
+            differing.remove("neat")
+            differing += sorted(f"neat.{k}" for k in set(asked["neat"]) | set(saved["neat"])
+                                if saved["neat"].get(k) != asked["neat"].get(k))
         if differing:
             raise ValueError(f"cannot resume {str(self.out)!r}: configuration differs in {differing} "
-                             f"(only the stopping rules {list(STOPPING_RULES)} may change on resume)")
+                             f"(only the stopping rules {list(STOPPING_RULES)} may change on resume; the run was "
+                             f"made with {_saved_values(saved, differing)})")
         if any(saved.get(k, defaults[k]) != asked[k] for k in STOPPING_RULES):
             atomic_write_json(self.out / "config.json", versioned("config", asked))
         self.population = Population.from_dict(data["population"])
@@ -181,6 +188,11 @@ class Trainer:
         fitness_curve(self.out / "log.csv", self.out / "fitness.png",
                       title=f"{self.config.mode}, seed {self.config.seed}, pop {self.config.neat.population_size}")
         return summary
+
+
+def _saved_values(saved: dict[str, Any], keys: list[str]) -> str:
+    vals = [f"{k} = {saved['neat'].get(k[5:]) if k.startswith('neat.') else saved.get(k)!r}" for k in keys]
+    return ", ".join(vals)
 
 
 def train(config: TrainConfig, out_dir: "str | Path", resume: bool = False,

@@ -13,6 +13,7 @@ from typing import Any, Mapping
 
 from ..config import INITS, TrainConfig
 from ..files import atomic_write_json, read_versioned_json, versioned
+from ..neat.settings import NeatSettings, with_legacy_values
 from ..substrate import MODES
 
 PLAN_FILE = "experiment.json"
@@ -39,6 +40,8 @@ class ExperimentPlan:
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "modes", tuple(self.modes))
+        # the plan names its NEAT tie rule, so an experiment.json says which rule its runs used
+        object.__setattr__(self, "neat", {"tie_break": NeatSettings().tie_break, **self.neat})
         bad = [m for m in self.modes if m not in MODES]
         if bad or not self.modes or len(set(self.modes)) != len(self.modes):
             raise ValueError(f"modes must be distinct values of {MODES}, got {list(self.modes)}")
@@ -96,7 +99,9 @@ class ExperimentPlan:
 
     @classmethod
     def load(cls, out: "str | Path") -> "ExperimentPlan":
-        return cls.from_mapping(read_versioned_json(Path(out) / PLAN_FILE, "experiment"))
+        data = read_versioned_json(Path(out) / PLAN_FILE, "experiment")
+        # a plan saved before the NEAT tie rule was recorded ran with the old rule (see LEGACY_VALUES)
+        return cls.from_mapping({**data, "neat": with_legacy_values(data.get("neat", {}))})
 
     def save_or_check(self, out: "str | Path") -> None:
         """Write experiment.json, or refuse if the folder holds an experiment with another plan."""
@@ -106,7 +111,11 @@ class ExperimentPlan:
             a, b = saved.to_dict(), self.to_dict()
             differing = sorted(k for k in a if a[k] != b[k] and k not in ("runs", "top", "general_episodes", "transfer_episodes", "replays"))
             if differing:
+                hint = ""
+                if "neat" in differing:
+                    hint = (f" (its NEAT overrides are {dict(a['neat'])}; pass them in the `neat` table of a "
+                            "--config file)")
                 raise ValueError(f"{str(out)!r} holds an experiment with a different plan ({differing}); "
-                                 "use another --out or the saved settings")
+                                 f"use another --out or the saved settings{hint}")
         Path(out).mkdir(parents=True, exist_ok=True)
         atomic_write_json(path, versioned("experiment", self.to_dict()))

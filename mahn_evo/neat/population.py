@@ -32,7 +32,7 @@ from .genome import Genome
 from .initial import initial_population
 from .innovation import InnovationTracker
 from .reproduction import elite_sizes, make_offspring, stagnation_adjusted_means, target_sizes, top_two_targets
-from .settings import NeatSettings
+from .settings import NeatSettings, with_legacy_values
 from .speciation import RepresentativeIndex, Species, ThresholdController, first_compatible, speciate_all
 
 __all__ = ["Population", "GenerationStats"]
@@ -81,6 +81,8 @@ class Population:
         self.tracker = tracker
         self.generation = 0
         self._genomes: list[Genome] = list(genomes)
+        #: Generation in which each genome of _genomes was made (its age decides ties with tie_break "youngest").
+        self._born: list[int] = [0] * len(self._genomes)
         self._threshold = ThresholdController(settings.initial_compatibility_threshold)
         self._species, self._next_species_id = speciate_all(
             self._genomes, self._threshold.threshold, settings, (), 0, 0
@@ -148,9 +150,13 @@ class Population:
         gen = self.generation
         genomes = self._genomes
 
-        # 7. sort species best first, statistics, stagnation bookkeeping
+        # 7. sort species best first (equal fitness: see NeatSettings.tie_break), statistics, stagnation
+        born = self._born
         for sp in self._species:
-            sp.members.sort(key=lambda i: (-f[i], i))
+            if s.tie_break == "youngest":
+                sp.members.sort(key=lambda i: (-f[i], -born[i], i))
+            else:
+                sp.members.sort(key=lambda i: (-f[i], i))
         best = int(np.argmax(f))
         if f[best] > self.best_fitness:
             self.best_fitness = float(f[best])
@@ -191,15 +197,18 @@ class Population:
 
         # 4. trim to elites; the new list is the elites (species order, best first), then offspring
         new_genomes: list[Genome] = []
+        new_born: list[int] = []
         new_species: list[Species] = []
         for sp, e in zip(species, elites.tolist()):
             if e == 0:
                 continue
             start = len(new_genomes)
             new_genomes.extend(genomes[i] for i in sp.members[:e])
+            new_born.extend(born[i] for i in sp.members[:e])
             new_species.append(Species(sp.id, list(range(start, start + e)), sp.created, sp.best_fitness, sp.last_improvement))
         n_elite = len(new_genomes)
         new_genomes.extend(o.genome for o in offspring)
+        new_born.extend([gen + 1] * len(offspring))
         assert len(new_genomes) == n, (len(new_genomes), n)
 
         # 5. place offspring
@@ -231,6 +240,7 @@ class Population:
             self._ref_complexity = cplx
 
         self._genomes = new_genomes
+        self._born = new_born
         self._species = new_species
         self.generation = gen + 1
         return GenerationStats(
@@ -255,6 +265,7 @@ class Population:
             "settings": self.settings.to_dict(),
             "generation": self.generation,
             "genomes": [g.to_dict() for g in self._genomes],
+            "born": list(self._born),
             "species": [sp.to_dict() for sp in self._species],
             "next_species_id": self._next_species_id,
             "threshold": self._threshold.to_dict(),
@@ -273,13 +284,22 @@ class Population:
             raise ValueError(f"Population.from_dict: not a {FORMAT} document (format={data.get('format')!r})")
         if data.get("version") != VERSION:
             raise ValueError(f"Population.from_dict: unsupported version {data.get('version')!r}")
-        settings = NeatSettings.from_mapping(data["settings"])
+        settings = NeatSettings.from_mapping(with_legacy_values(data["settings"]))
         self = cls.__new__(cls)
         self.settings = settings
         self.generation = int(data["generation"])
         self._genomes = [Genome.from_dict(g) for g in data["genomes"]]
         if len(self._genomes) != settings.population_size:
             raise ValueError("Population.from_dict: genome count does not match population_size")
+        born = data.get("born")
+        if born is None:  # written before genome ages were kept: only the "oldest" rule can continue it exactly
+            if settings.tie_break != "oldest":
+                raise ValueError("Population.from_dict: this state has no genome ages, so it cannot continue with "
+                                 f"tie_break {settings.tie_break!r}")
+            born = [0] * len(self._genomes)
+        if len(born) != len(self._genomes) or not all(isinstance(b, int) and 0 <= b <= self.generation for b in born):
+            raise ValueError("Population.from_dict: 'born' must hold one generation (0..generation) per genome")
+        self._born = list(born)
         self._species = [Species.from_dict(d) for d in data["species"]]
         members = sorted(i for sp in self._species for i in sp.members)
         if members != list(range(len(self._genomes))):

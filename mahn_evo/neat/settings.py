@@ -104,6 +104,14 @@ class NeatSettings:
     #: fraction since the last one.
     respeciation_complexity_change: float = 0.05
 
+    # --- selection ---------------------------------------------------------------------------------------------
+    #: Order of species members of equal fitness.  It decides, on a fitness plateau, which genomes are the elites,
+    #: the species representative and the parent pool.  "youngest": newest first, as SharpNEAT 1.0's
+    #: GenomeComparer (fitness descending, then genome age ascending), so equally fit offspring replace old elites
+    #: and the population drifts neutrally along the plateau.  "oldest": first-born first, which freezes the elites
+    #: on a plateau; it was mahn 0.1's rule, and runs saved without this setting used it (see LEGACY_VALUES).
+    tie_break: str = "youngest"
+
     # --- stagnation --------------------------------------------------------------------------------------------
     #: A species whose best fitness has not improved for more than this many generations is penalised ...
     stagnation_generations: int = 200
@@ -195,6 +203,7 @@ class NeatSettings:
             "must be a bool",
         )
         _check(isinstance(self.evaluate_modules, bool), "evaluate_modules", "must be a bool")
+        _check(self.tie_break in TIE_BREAKS, "tie_break", f"must be one of {TIE_BREAKS}, got {self.tie_break!r}")
         _check(isinstance(self.weight_difference_mean, bool), "weight_difference_mean", "must be a bool")
         _check(
             isinstance(self.hidden_activations, tuple)
@@ -272,6 +281,19 @@ class NeatSettings:
     def replace(self, **changes: Any) -> "NeatSettings":
         """A copy with some fields changed (validated again)."""
         return self.from_mapping({**self.to_dict(), **changes})
+
+
+TIE_BREAKS = ("youngest", "oldest")
+
+#: Settings whose default changed after runs were saved: a saved mapping (checkpoint, config.json,
+#: experiment.json) without the key was run with this value, so it resumes unchanged.  Unlike LATER_FIELDS, these
+#: are always written.
+LEGACY_VALUES = {"tie_break": "oldest"}
+
+
+def with_legacy_values(saved: Mapping[str, Any]) -> dict[str, Any]:
+    """A saved NEAT settings mapping with the values it was run with filled in (see :data:`LEGACY_VALUES`)."""
+    return {**LEGACY_VALUES, **saved}
 
 
 #: Settings added after checkpoints of the original-system runs were written; see :meth:`NeatSettings.to_dict`.

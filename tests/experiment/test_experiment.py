@@ -44,6 +44,19 @@ def test_plan_validation_and_refusal(tmp_path):
     assert cfg.stop_when_solved and cfg.after_solved == plan.after_solved
 
 
+def test_a_plan_saved_before_the_tie_rule_keeps_its_rule(tmp_path):
+    ExperimentPlan(**SMALL).save_or_check(tmp_path)
+    saved = json.loads((tmp_path / "experiment.json").read_text())
+    assert saved["neat"] == {"tie_break": "youngest"}  # a plan names its rule
+    saved["neat"] = {}  # as written before the rule was recorded
+    (tmp_path / "experiment.json").write_text(json.dumps(saved))
+    old = ExperimentPlan.load(tmp_path)
+    assert old.train_config("situational", 5).neat.tie_break == "oldest"
+    with pytest.raises(ValueError, match=r"\['neat'\].*'tie_break': 'oldest'.*--config"):
+        ExperimentPlan(**SMALL).save_or_check(tmp_path)
+    ExperimentPlan(**{**SMALL, "neat": {"tie_break": "oldest"}}).save_or_check(tmp_path)
+
+
 def _record(mode, seed, first, gens=1000):
     best = np.linspace(1, 150 if first is not None else 50, gens)
     return RunRecord(f"{mode}_s{seed:03d}", mode, seed, Path("."), True, gens, first is not None, first,
