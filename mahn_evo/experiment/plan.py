@@ -13,7 +13,7 @@ from typing import Any, Mapping
 
 from ..config import INITS, TrainConfig
 from ..files import atomic_write_json, read_versioned_json, versioned
-from ..neat.settings import NeatSettings, with_legacy_values
+from ..neat.settings import LEGACY_VALUES, NeatSettings, with_legacy_values
 from ..substrate import MODES
 
 PLAN_FILE = "experiment.json"
@@ -40,8 +40,8 @@ class ExperimentPlan:
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "modes", tuple(self.modes))
-        # the plan names its NEAT tie rule, so an experiment.json says which rule its runs used
-        object.__setattr__(self, "neat", {"tie_break": NeatSettings().tie_break, **self.neat})
+        # the plan names the NEAT rules whose default changed, so an experiment.json says which ones its runs used
+        object.__setattr__(self, "neat", {**{k: getattr(NeatSettings(), k) for k in LEGACY_VALUES}, **self.neat})
         bad = [m for m in self.modes if m not in MODES]
         if bad or not self.modes or len(set(self.modes)) != len(self.modes):
             raise ValueError(f"modes must be distinct values of {MODES}, got {list(self.modes)}")
@@ -100,7 +100,7 @@ class ExperimentPlan:
     @classmethod
     def load(cls, out: "str | Path") -> "ExperimentPlan":
         data = read_versioned_json(Path(out) / PLAN_FILE, "experiment")
-        # a plan saved before the NEAT tie rule was recorded ran with the old rule (see LEGACY_VALUES)
+        # a plan saved before these NEAT rules were recorded ran with the old ones (see LEGACY_VALUES)
         return cls.from_mapping({**data, "neat": with_legacy_values(data.get("neat", {}))})
 
     def save_or_check(self, out: "str | Path") -> None:

@@ -83,6 +83,8 @@ class Population:
         self._genomes: list[Genome] = list(genomes)
         #: Generation in which each genome of _genomes was made (its age decides ties with tie_break "youngest").
         self._born: list[int] = [0] * len(self._genomes)
+        #: Species ids of each genome's parents (empty for the initial genomes), for re-speciation.
+        self._parents: list[tuple[int, ...]] = [()] * len(self._genomes)
         self._threshold = ThresholdController(settings.initial_compatibility_threshold)
         self._species, self._next_species_id = speciate_all(
             self._genomes, self._threshold.threshold, settings, (), 0, 0
@@ -198,6 +200,7 @@ class Population:
         # 4. trim to elites; the new list is the elites (species order, best first), then offspring
         new_genomes: list[Genome] = []
         new_born: list[int] = []
+        new_parents: list[tuple[int, ...]] = []
         new_species: list[Species] = []
         for sp, e in zip(species, elites.tolist()):
             if e == 0:
@@ -205,10 +208,12 @@ class Population:
             start = len(new_genomes)
             new_genomes.extend(genomes[i] for i in sp.members[:e])
             new_born.extend(born[i] for i in sp.members[:e])
+            new_parents.extend(self._parents[i] for i in sp.members[:e])
             new_species.append(Species(sp.id, list(range(start, start + e)), sp.created, sp.best_fitness, sp.last_improvement))
         n_elite = len(new_genomes)
         new_genomes.extend(o.genome for o in offspring)
         new_born.extend([gen + 1] * len(offspring))
+        new_parents.extend(tuple(o.parent_species) for o in offspring)
         assert len(new_genomes) == n, (len(new_genomes), n)
 
         # 5. place offspring
@@ -235,12 +240,14 @@ class Population:
         drift = abs(cplx - self._ref_complexity) > s.respeciation_complexity_change * self._ref_complexity
         if changed or drift:
             new_species, self._next_species_id = speciate_all(
-                new_genomes, self._threshold.threshold, s, new_species, gen + 1, self._next_species_id
+                new_genomes, self._threshold.threshold, s, new_species, gen + 1, self._next_species_id,
+                new_parents if s.respeciate_parents_first else (),
             )
             self._ref_complexity = cplx
 
         self._genomes = new_genomes
         self._born = new_born
+        self._parents = new_parents
         self._species = new_species
         self.generation = gen + 1
         return GenerationStats(
@@ -266,6 +273,7 @@ class Population:
             "generation": self.generation,
             "genomes": [g.to_dict() for g in self._genomes],
             "born": list(self._born),
+            "parents": [list(p) for p in self._parents],
             "species": [sp.to_dict() for sp in self._species],
             "next_species_id": self._next_species_id,
             "threshold": self._threshold.to_dict(),
@@ -300,6 +308,16 @@ class Population:
         if len(born) != len(self._genomes) or not all(isinstance(b, int) and 0 <= b <= self.generation for b in born):
             raise ValueError("Population.from_dict: 'born' must hold one generation (0..generation) per genome")
         self._born = list(born)
+        parents = data.get("parents")
+        if parents is None:  # written before parents were kept: only the old re-speciation can continue it
+            if settings.respeciate_parents_first:
+                raise ValueError("Population.from_dict: this state has no parent species, so it cannot continue "
+                                 "with respeciate_parents_first")
+            parents = [[]] * len(self._genomes)
+        if len(parents) != len(self._genomes) or not all(
+                isinstance(p, list) and all(isinstance(q, int) for q in p) for p in parents):
+            raise ValueError("Population.from_dict: 'parents' must hold a list of species ids per genome")
+        self._parents = [tuple(p) for p in parents]
         self._species = [Species.from_dict(d) for d in data["species"]]
         members = sorted(i for sp in self._species for i in sp.members)
         if members != list(range(len(self._genomes))):

@@ -88,6 +88,10 @@ class NeatSettings:
     #: True: the weight term is weight_coefficient * MEAN |dw| over matching genes (NEAT 2002's W-bar) instead of
     #: the sum.  False is the original.
     weight_difference_mean: bool = False
+    #: A full re-speciation first tries the species of a genome's parents (by species id, among the species formed
+    #: so far), then every species in order, as SharpNEAT 1.0's RedetermineSpeciation.  False: every species in
+    #: order only (mahn 0.1's rule; runs saved without this setting used it, see LEGACY_VALUES).
+    respeciate_parents_first: bool = True
     initial_compatibility_threshold: float = 8.0
     #: Desired species count range; ``None`` means population_size/10 - 2 and population_size/10 (48..50 at 500).
     species_count_min: int | None = None
@@ -203,6 +207,7 @@ class NeatSettings:
             "must be a bool",
         )
         _check(isinstance(self.evaluate_modules, bool), "evaluate_modules", "must be a bool")
+        _check(isinstance(self.respeciate_parents_first, bool), "respeciate_parents_first", "must be a bool")
         _check(self.tie_break in TIE_BREAKS, "tie_break", f"must be one of {TIE_BREAKS}, got {self.tie_break!r}")
         _check(isinstance(self.weight_difference_mean, bool), "weight_difference_mean", "must be a bool")
         _check(
@@ -288,7 +293,7 @@ TIE_BREAKS = ("youngest", "oldest")
 #: Settings whose default changed after runs were saved: a saved mapping (checkpoint, config.json,
 #: experiment.json) without the key was run with this value, so it resumes unchanged.  Unlike LATER_FIELDS, these
 #: are always written.
-LEGACY_VALUES = {"tie_break": "oldest"}
+LEGACY_VALUES = {"tie_break": "oldest", "respeciate_parents_first": False}
 
 
 def with_legacy_values(saved: Mapping[str, Any]) -> dict[str, Any]:

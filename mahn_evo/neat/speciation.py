@@ -174,11 +174,13 @@ def speciate_all(
     old_species: Sequence[Species],
     generation: int,
     next_species_id: int,
+    parents: Sequence[Sequence[int]] = (),
 ) -> tuple[list[Species], int]:
     """Full re-speciation of ``genomes`` in list order; returns (species ordered by id, next free species id).
 
     A new species inherits the identity of the old species its founder belonged to (first claim wins); otherwise
-    it gets a fresh id.
+    it gets a fresh id.  With ``parents`` (per genome, the species ids of its parents), a genome first tries those
+    of its parents' species that have been formed so far, then every species in order.
     """
     owner: dict[int, Species] = {}
     for sp in old_species:
@@ -187,8 +189,10 @@ def speciate_all(
     claimed: set[int] = set()
     index = RepresentativeIndex(genomes, settings)
     species: list[Species] = []
+    row_of: dict[int, int] = {}  # species id -> row
     for i, g in enumerate(genomes):
-        r = first_compatible(index.distances(g), threshold, ())
+        preferred = [row_of.get(pid, -1) for pid in parents[i]] if parents else ()
+        r = first_compatible(index.distances(g), threshold, preferred)
         if r >= 0:
             species[r].members.append(i)
             continue
@@ -199,6 +203,7 @@ def speciate_all(
         else:
             sp = Species(next_species_id, [i], generation, -math.inf, generation)
             next_species_id += 1
+        row_of[sp.id] = len(species)
         species.append(sp)
         index.add(g)
     species.sort(key=lambda s: s.id)

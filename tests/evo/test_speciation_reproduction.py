@@ -124,3 +124,20 @@ def test_targets_and_elites(shares, total, data):
 def test_apportion_ties_go_to_earlier_species():
     assert apportion(np.array([1.0, 1.0, 1.0]), 4).tolist() == [2, 1, 1]
     assert apportion(np.array([1.0, 1.0, 1.0]), 5).tolist() == [2, 2, 1]
+
+
+def test_speciate_all_tries_the_parents_species_first():
+    s = NeatSettings(population_size=10)
+    a = _g([(4, 1.0), (5, 1.0), (6, 1.0)])
+    b = _g([(4, 1.0), (5, 1.0), (6, 1.0), (7, 0.1), (8, 0.1), (13, 0.1), (9, 0.1)])  # distance 4 from a
+    c = _g([(4, 1.0), (5, 1.0), (6, 1.0), (7, 0.1), (8, 0.1)])  # distance 2 from both
+    old = [Species(7, [0], 0, 1.0, 0), Species(9, [1], 0, 1.0, 0)]
+    plain, _ = speciate_all([a, b, c], 3.0, s, old, 5, 20)
+    assert [(sp.id, sp.members) for sp in plain] == [(7, [0, 2]), (9, [1])]  # first compatible in order
+    parents = [(), (), (9,)]
+    pref, _ = speciate_all([a, b, c], 3.0, s, old, 5, 20, parents)
+    assert [(sp.id, sp.members) for sp in pref] == [(7, [0]), (9, [1, 2])]
+    # a parent species that is not formed (yet) or not compatible is skipped
+    old = [Species(7, [0], 0, 1.0, 0), Species(9, [2], 0, 1.0, 0)]
+    early, _ = speciate_all([a, c, b], 3.0, s, old, 5, 20, [(), (9,), ()])
+    assert [(sp.id, sp.members) for sp in early] == [(7, [0, 1]), (9, [2])]

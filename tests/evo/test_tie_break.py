@@ -48,16 +48,20 @@ def test_born_is_saved_and_checked():
     no_ages = {k: v for k, v in d.items() if k != "born"}
     with pytest.raises(ValueError, match="no genome ages.*youngest"):
         Population.from_dict(no_ages)
+    no_parents = {k: v for k, v in d.items() if k != "parents"}
+    with pytest.raises(ValueError, match="no parent species.*respeciate_parents_first"):
+        Population.from_dict(no_parents)
 
 
-def test_a_state_saved_before_the_setting_existed_continues_with_the_old_rule():
-    pop = Population.create(S.replace(tie_break="oldest"), seed=5, kind="iros2011", n_inputs=6)
+def test_a_state_saved_before_the_settings_existed_continues_with_the_old_rules():
+    pop = Population.create(S.replace(tie_break="oldest", respeciate_parents_first=False), seed=5,
+                            kind="iros2011", n_inputs=6)
     pop.tell(np.full(40, 1.0))
     d = json.loads(json.dumps(pop.to_dict()))
-    legacy = {k: v for k, v in d.items() if k != "born"}
-    legacy["settings"] = {k: v for k, v in d["settings"].items() if k != "tie_break"}
+    legacy = {k: v for k, v in d.items() if k not in ("born", "parents")}
+    legacy["settings"] = {k: v for k, v in d["settings"].items() if k not in ("tie_break", "respeciate_parents_first")}
     old, new = Population.from_dict(legacy), Population.from_dict(d)
-    assert old.settings.tie_break == "oldest"
+    assert old.settings.tie_break == "oldest" and not old.settings.respeciate_parents_first
     f = np.random.default_rng(0).integers(0, 3, 40).astype(float)
     old.tell(f)
     new.tell(f)

@@ -47,14 +47,16 @@ def test_plan_validation_and_refusal(tmp_path):
 def test_a_plan_saved_before_the_tie_rule_keeps_its_rule(tmp_path):
     ExperimentPlan(**SMALL).save_or_check(tmp_path)
     saved = json.loads((tmp_path / "experiment.json").read_text())
-    assert saved["neat"] == {"tie_break": "youngest"}  # a plan names its rule
+    assert saved["neat"] == {"tie_break": "youngest", "respeciate_parents_first": True}  # a plan names its rules
     saved["neat"] = {}  # as written before the rule was recorded
     (tmp_path / "experiment.json").write_text(json.dumps(saved))
     old = ExperimentPlan.load(tmp_path)
-    assert old.train_config("situational", 5).neat.tie_break == "oldest"
+    neat = old.train_config("situational", 5).neat
+    assert neat.tie_break == "oldest" and not neat.respeciate_parents_first
     with pytest.raises(ValueError, match=r"\['neat'\].*'tie_break': 'oldest'.*--config"):
         ExperimentPlan(**SMALL).save_or_check(tmp_path)
-    ExperimentPlan(**{**SMALL, "neat": {"tie_break": "oldest"}}).save_or_check(tmp_path)
+    ExperimentPlan(**{**SMALL, "neat": {"tie_break": "oldest", "respeciate_parents_first": False}}
+                   ).save_or_check(tmp_path)
 
 
 def _record(mode, seed, first, gens=1000):
