@@ -17,7 +17,7 @@ Presets (documented in :mod:`mahn_evo.neat.xor`):
 
 Why ``sharpneat`` needs ~2.4x neat-python's and ~4x the published evaluations (no bug found in
 selection, offspring allocation, elitism counting, speciation, innovation numbering or crossover alignment; the
-default-settings run is bit-identical before and after the options below were added):
+NEAT 2002 options below are off by default and leave the default run bit-identical):
 
 1. 20 % elitism: floor(0.2 * target) members of every species are copied unchanged and re-evaluated, so a fifth
    of every generation's evaluations explores nothing (NEAT copies one champion per species).
@@ -36,9 +36,12 @@ species and 80 % crossover mutation 15/15, 15,760; + population stagnation rule 
 mutation-only and interspecies 0.001 14/15, 16,286; the full paper constants (fixed threshold, c3 0.4 mean,
 drop-off 15, jiggle 2.5 on all weights, limit 8) 9/15 to 11/15.
 
-Measured, 30 seeds, pop 150, budget 300 generations (solved, mean evaluations of solved runs, median):
-sharpneat 97 %, 20,467, 16,350; neat2002 97 %, 16,267, 14,250 (-21 % mean); neat-python 97 %, 8,534, 8,100;
-published 100 %, ~4,755.  The remaining gap to the paper is in the weight-mutation operator and the
+Measured, 30 seeds, pop 150, budget 300 generations (solved, mean evaluations of solved runs, median), with
+SharpNEAT 1.0's tie rule (youngest first) and parent-first re-speciation, the defaults since mahn 0.2:
+sharpneat 87 %, 21,421, 21,750; neat2002 93 %, 18,161, 16,125; neat-python 97 %, 8,534, 8,100; published 100 %,
+~4,755.  With mahn 0.1's rules (``tie_break="oldest"``, ``respeciate_parents_first=False``): sharpneat 97 %,
+20,467; neat2002 97 %, 16,267.  One rule at a time (sharpneat, same 30 seeds): youngest first alone 27/30 solved,
+-5 % evaluations; parent-first alone 27/30, +21 %.  Differences of two or three seeds in 30 are within chance.  The remaining gap to the paper is in the weight-mutation operator and the
 disable-vs-remove split link, which the original system's mechanisms (which drive the patrol runs) do not have.
 
 Reference figures: Stanley & Miikkulainen (2002), population 150: 100 of 100 runs solved, 32 generations and about
