@@ -41,6 +41,13 @@ class ControllerPolicy:
         self._out[:] = 0.0
         self._brain[:] = 0
 
+    def snapshot(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The networks' state (hidden, outputs, brain), to try an input and go back (see `restore`)."""
+        return self._hid.copy(), self._out.copy(), self._brain.copy()
+
+    def restore(self, snapshot: tuple[np.ndarray, np.ndarray, np.ndarray]) -> None:
+        self._hid[:], self._out[:], self._brain[:] = snapshot
+
     @property
     def outputs(self) -> np.ndarray:
         """Last network outputs (R, 3): left, forward, right."""

@@ -280,7 +280,8 @@ def cmd_eval(args) -> int:
             m = result["margins"]
             print(f"decisions {m['decisions']}: {100 * m['tied_fraction']:.1f}% exact ties, "
                   f"{100 * m['near_tie_fraction']:.1f}% near-ties (< 0.001); median margin "
-                  f"{m['median_margin']:.3g}, median top output {m['median_top_output']:.7f}")
+                  f"{m['median_margin']:.3g}, median top output {m['median_top_output']:.7f}; "
+                  f"{m['flipped']} decision(s) flipped by input jitter of +-{m['probe']:g}")
     return 0
 
 

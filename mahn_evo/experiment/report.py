@@ -59,7 +59,10 @@ def _fmt(v: Any, digits: int = 1) -> str:
 
 def _ties(entry: dict[str, Any]) -> str:
     m = entry["transfer"].get("margins")  # absent in results written before margins were recorded
-    return f"{100 * m['tied_fraction']:.0f}% / {100 * m['near_tie_fraction']:.0f}%" if m else "n/a"
+    if not m:
+        return "n/a"
+    flips = f" / {m['flipped']}" if "flipped" in m else ""  # absent in results written before the probe
+    return f"{100 * m['tied_fraction']:.0f}% / {100 * m['near_tie_fraction']:.0f}%{flips}"
 
 
 def markdown(results: dict[str, Any]) -> str:
@@ -94,8 +97,8 @@ def markdown(results: dict[str, Any]) -> str:
               "protocol in the pymunk engine (robots called home one at a time, sent back out); success = every "
               f"robot reaches its post, returns and goes back out. Noisy columns: {plan['transfer_episodes']} "
               "episodes with the generalisation noise. Ties: the share of the team's decisions on the training "
-              "map that are exact ties of the top two outputs / near-ties (< 0.001), see `mahn-evo eval "
-              "--margins`.", ""]
+              "map that are exact ties of the top two outputs / near-ties (< 0.001) / the number of decisions that input "
+              "jitter of +-1e-4 flips; ties are harmless, flips are not (see `mahn-evo eval --margins`).", ""]
     head = "| mode | run | generation | solution | general: solved / mean fitness | ties |"
     sub = "|---|---|---|---|---|---|"
     for m in TRANSFER_MAPS:

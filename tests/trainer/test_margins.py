@@ -27,6 +27,7 @@ def test_all_equal_outputs_are_all_ties():
     assert m["decisions"] > 3 * 1000
     assert m["tied_fraction"] == 1.0 and m["near_tie_fraction"] == 1.0
     assert m["median_margin"] == 0.0 and m["median_top_output"] == 0.5
+    assert m["flipped"] == 0  # no weights: inputs cannot reach the outputs
 
 
 def test_a_clear_preference_is_no_tie():
@@ -40,6 +41,25 @@ def test_near_ties_count_separately_from_exact_ties():
     # forward ahead of left by a hair: never an exact tie, always a near-tie
     m = decision_margins(_champion(_team([0.0, 1e-4, -1.0])))
     assert m["tied_fraction"] == 0.0 and m["near_tie_fraction"] == 1.0
+
+
+def test_the_probe_flips_decisions_that_ride_on_the_inputs():
+    # hidden 0 reads the front-left IR input; left and forward are built to tie exactly when it reads 1.0 (free
+    # space, forward wins the tie) and to prefer left for any smaller reading, so jitter flips those decisions
+    R, K = 3, 2
+    w_ih = np.zeros((R, K, 9, 7), dtype=np.float32)
+    w_ih[..., 0, 2] = 1.0
+    a = np.float32(50.0)
+    h_free = np.float32(1.0) / (np.float32(1.0) + np.float32(np.exp(-np.float32(4.9))))  # hidden 0 at input 1.0
+    w_ho = np.zeros((R, K, 3, 9), dtype=np.float32)
+    w_ho[..., 0, 0], w_ho[..., 1, 0] = -a, a
+    b_o = np.zeros((R, K, 3), dtype=np.float32)
+    b_o[..., 0], b_o[..., 1] = a * h_free, -(a * h_free)
+    team = TeamControllers(w_ih, np.zeros((R, K, 9, 9)), w_ho, np.zeros((R, K, 9)), b_o)
+    steady = decision_margins(_champion(team), probe=0.0)
+    fragile = decision_margins(_champion(team), probe=1e-2)
+    assert steady["flipped"] == 0 and steady["tied_fraction"] > 0
+    assert fragile["flipped"] > 0 and fragile["fitness"] == steady["fitness"]  # the probe never steers
 
 
 def test_cli_eval_margins(tmp_path, capsys):
