@@ -25,6 +25,12 @@ NOISE_PRESETS = {
 }
 
 
+def task_env(map: str, params: TaskParams, engine: str = "kinematic", render_mode: Optional[str] = None):
+    """The PettingZoo env of `map` with the task settings of `params` (its fitness sampling is the env's own)."""
+    return patrol_return_v0.parallel_env(map=map, engine=engine, render_mode=render_mode,
+                                         **{k: v for k, v in params.to_dict().items() if k != "sample_period"})
+
+
 def task_params(noise: str = "none", **overrides: Any) -> TaskParams:
     if noise not in NOISE_PRESETS:
         raise ValueError(f"unknown noise preset {noise!r}; choose one of {sorted(NOISE_PRESETS)}")
@@ -50,9 +56,7 @@ def evaluate_champion(champion: "Champion | str | Path", map: str = "plus", engi
         fits, solved = res.fitness.tolist(), [bool(s) for s in res.solved]
     else:
         for e in range(episodes):
-            env = patrol_return_v0.parallel_env(
-                map=map, engine=engine, render_mode="rgb_array" if (video and e == 0) else None,
-                **{k: v for k, v in params.to_dict().items() if k not in ("sample_period",)})
+            env = task_env(map, params, engine, render_mode="rgb_array" if (video and e == 0) else None)
             obs, _ = env.reset(seed=seed if episodes == 1 else seed + e)
             policy = ControllerPolicy(champ.controllers, env.possible_agents)
             frames = [env.render()] if (video and e == 0) else None

@@ -15,11 +15,11 @@ from typing import Any, Optional
 
 import numpy as np
 
-from mahn_envs import patrol_return_v0
 from mahn_envs.core.params import TaskParams
 from mahn_envs.policy import ControllerPolicy
 
 from .champion import Champion
+from .evaluate import task_env
 
 #: margins below this count as near-ties: the threshold of the original code's (unused) "confused" counter.
 NEAR_TIE = 0.001
@@ -52,8 +52,7 @@ def decision_margins(champion: "Champion | str | Path", map: str = "plus", param
     """
     champ = champion if isinstance(champion, Champion) else Champion.load(champion)
     params = params or TaskParams()
-    env = patrol_return_v0.parallel_env(map=map, **{k: v for k, v in params.to_dict().items()
-                                                    if k not in ("sample_period",)})
+    env = task_env(map, params)
     try:
         obs, _ = env.reset(seed=seed)
         policy = ControllerPolicy(champ.controllers, env.possible_agents)

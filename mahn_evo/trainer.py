@@ -26,7 +26,6 @@ from .evaluator import TeamEvaluator
 from .files import atomic_write_csv, atomic_write_json, read_versioned_json, versioned
 from .neat.genome import Genome
 from .neat.population import Population
-from .neat.settings import with_legacy_values
 
 #: settings that only decide when a run ends; they may change when a run is resumed (e.g. more generations)
 STOPPING_RULES = ("generations", "stop_when_solved", "after_solved")
@@ -76,11 +75,10 @@ class Trainer:
     # ------------------------------------------------------------------ checkpoint
     def _resume(self, ckpt: Path) -> None:
         data = read_versioned_json(ckpt, "checkpoint")
-        saved = data["config"]
-        saved = {**saved, "neat": with_legacy_values(saved.get("neat", {}))}  # the values it was run with
+        # the values it was run with: keys added since keep their defaults, changed defaults their old values
+        saved = TrainConfig.from_saved(data["config"]).to_dict()
         asked = self.config.to_dict()
-        defaults = TrainConfig().to_dict()  # keys added after a checkpoint was written keep their defaults
-        differing = sorted(k for k in asked if k not in STOPPING_RULES and saved.get(k, defaults[k]) != asked[k])
+        differing = sorted(k for k in asked if k not in STOPPING_RULES and saved[k] != asked[k])
         if "neat" in differing:  # name the NEAT settings, so the message says what to set
             differing.remove("neat")
             differing += sorted(f"neat.{k}" for k in set(asked["neat"]) | set(saved["neat"])
@@ -89,7 +87,7 @@ class Trainer:
             raise ValueError(f"cannot resume {str(self.out)!r}: configuration differs in {differing} "
                              f"(only the stopping rules {list(STOPPING_RULES)} may change on resume; the run was "
                              f"made with {_saved_values(saved, differing)})")
-        if any(saved.get(k, defaults[k]) != asked[k] for k in STOPPING_RULES):
+        if any(saved[k] != asked[k] for k in STOPPING_RULES):
             atomic_write_json(self.out / "config.json", versioned("config", asked))
         self.population = Population.from_dict(data["population"])
         t = data["trainer"]
