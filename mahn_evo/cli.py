@@ -8,7 +8,30 @@ from pathlib import Path
 from typing import Optional, Sequence
 
 from .config import INITS, TrainConfig, load_config_file
+from .cppn import CPPN_ACTIVATIONS
+from .evaluate import NOISE_PRESETS
+from .evaluator import AGGREGATES, NOISE_DRAWS
+from .presets import PRESETS, apply_preset
 from .substrate import MODES
+
+
+def _fidelity_and_robustness_options(p: argparse.ArgumentParser) -> None:
+    """Options shared by `train` and `experiment` (all default to None: the preset or the defaults decide)."""
+    p.add_argument("--preset", choices=sorted(PRESETS),
+                   help="a named configuration: iros2011-code (the original code's behaviour) or iros2011-paper "
+                        "(the paper's text where it differs); flags and --config override it")
+    p.add_argument("--cppn-activation", choices=CPPN_ACTIVATIONS,
+                   help="recursive (default: the original's one depth-first pass, recurrent CPPN links add 0) or "
+                        "relax (its MultipleSteps relaxation: modules and recurrent links live)")
+    p.add_argument("--noise", choices=sorted(NOISE_PRESETS),
+                   help="task noise during training (default none); with --episodes K > 1 teams are scored on K "
+                        "noisy episodes")
+    p.add_argument("--noise-draws", choices=NOISE_DRAWS,
+                   help="fixed (default: the same K episodes every generation) or per_generation (new episodes "
+                        "each generation, the same for every team of a generation)")
+    p.add_argument("--aggregate", choices=AGGREGATES,
+                   help="team fitness from its K episodes: mean (default), min or quantile (see --quantile)")
+    p.add_argument("--quantile", type=float, help="the quantile of --aggregate quantile (default 0.25)")
 
 
 def _train_parser(sub) -> None:
@@ -29,6 +52,7 @@ def _train_parser(sub) -> None:
     p.add_argument("--after-solved", type=int, metavar="G",
                    help="with --stop-when-solved, run G more generations so the archive gathers alternative "
                         "solutions for the generalisation test (default 0)")
+    _fidelity_and_robustness_options(p)
     p.add_argument("--config", type=Path, help="TOML or JSON file with TrainConfig fields (flags override it)")
     p.add_argument("--out", type=Path, default=Path("runs/latest"), help="run folder (default runs/latest)")
     p.add_argument("--resume", action="store_true", help="continue the run in --out from its checkpoint")
@@ -180,15 +204,23 @@ def _progress_printer(quiet: bool, total: int):
 def cmd_train(args) -> int:
     from .trainer import Trainer
 
-    base = load_config_file(args.config) if args.config else TrainConfig()
+    base = TrainConfig()
+    if args.preset:
+        base = apply_preset(base, args.preset)
+    if args.config:
+        base = load_config_file(args.config, base)
     overrides = dict(mode=args.mode, generations=args.generations, pop=args.pop, seed=args.seed, init=args.init,
                      map=args.map, episodes=args.episodes, evaluate_modules=args.evaluate_modules,
-                     stop_when_solved=args.stop_when_solved, after_solved=args.after_solved)
-    if args.resume and (args.out / "config.json").exists() and not args.config:
+                     stop_when_solved=args.stop_when_solved, after_solved=args.after_solved,
+                     cppn_activation=args.cppn_activation, noise_draws=args.noise_draws, aggregate=args.aggregate,
+                     quantile=args.quantile)
+    if args.resume and (args.out / "config.json").exists() and not args.config and not args.preset:
         from .files import read_versioned_json
 
         base = TrainConfig.from_saved(read_versioned_json(args.out / "config.json", "config"))
     config = base.with_overrides(**overrides)
+    if args.noise is not None:
+        config = config.with_noise(args.noise)
     trainer = Trainer(config, args.out, resume=args.resume)
     prog, on_gen = _progress_printer(args.quiet, config.generations)
     try:
