@@ -103,9 +103,11 @@ def _experiment_parser(sub) -> None:
     p.add_argument("--seed", type=int, default=d.seed, help="run i of each mode uses seed+i (default %(default)s)")
     p.add_argument("--generations", type=int, default=d.generations, help="at most (default %(default)s)")
     p.add_argument("--pop", type=int, default=d.population, help="population (default %(default)s)")
-    p.add_argument("--init", choices=INITS, default=d.init, help="initial population (default %(default)s)")
-    p.add_argument("--evaluate-modules", action=argparse.BooleanOptionalAction, default=d.evaluate_modules,
-                   help="evaluate the seed's Multiply modules (default %(default)s)")
+    p.add_argument("--init", choices=INITS, help=f"initial population (default {d.init})")
+    p.add_argument("--evaluate-modules", action=argparse.BooleanOptionalAction, default=None,
+                   help=f"evaluate the seed's Multiply modules (default {d.evaluate_modules})")
+    p.add_argument("--episodes", type=int, help="episodes per team per generation (default 1)")
+    _fidelity_and_robustness_options(p)
     p.add_argument("--map", default=d.map, help="training map (default %(default)s)")
     p.add_argument("--after-solved", type=int, default=d.after_solved,
                    help="generations a run continues after its first solution, so the generalisation test has "
@@ -134,15 +136,22 @@ def cmd_experiment(args) -> int:
     from .experiment.plan import ExperimentPlan
     from .experiment.runner import run_experiment
 
-    neat = {}
+    base = apply_preset(TrainConfig(), args.preset) if args.preset else TrainConfig()
     if args.config:
-        neat = {k: v for k, v in load_config_file(args.config).neat.to_dict().items()
-                if v != TrainConfig().neat.to_dict().get(k)}
+        base = load_config_file(args.config, base)
+    neat = {k: v for k, v in base.neat.to_dict().items() if v != TrainConfig().neat.to_dict().get(k)}
+    d = ExperimentPlan()
+    chosen = {"init": args.init, "evaluate_modules": args.evaluate_modules, "cppn_activation": args.cppn_activation,
+              "noise": args.noise, "episodes": args.episodes, "noise_draws": args.noise_draws,
+              "aggregate": args.aggregate, "quantile": args.quantile}
+    from_base = {k: getattr(base, k) for k in ("init", "evaluate_modules", "cppn_activation", "episodes",
+                                                "noise_draws", "aggregate", "quantile")
+                 if args.preset or args.config}
+    fields = {k: getattr(d, k) for k in chosen} | from_base | {k: v for k, v in chosen.items() if v is not None}
     plan = ExperimentPlan(modes=tuple(args.modes), runs=args.runs, seed=args.seed, generations=args.generations,
-                          population=args.pop, init=args.init, evaluate_modules=args.evaluate_modules, map=args.map,
-                          after_solved=args.after_solved, top=args.top, general_episodes=args.general_episodes,
-                          transfer_episodes=args.transfer_episodes, max_cycles=args.max_cycles,
-                          signal_tick=args.signal_tick, neat=neat)
+                          population=args.pop, map=args.map, after_solved=args.after_solved, top=args.top,
+                          general_episodes=args.general_episodes, transfer_episodes=args.transfer_episodes,
+                          max_cycles=args.max_cycles, signal_tick=args.signal_tick, neat=neat, **fields)
     import signal
 
     def _terminate(signum, frame):  # `kill PID` stops the workers too, like Ctrl-C
