@@ -132,6 +132,23 @@ def _experiment_parser(sub) -> None:
                         "runs in another shell)")
 
 
+def _screen_parser(sub) -> None:
+    p = sub.add_parser("screen", help="compare experiment folders of candidate configurations on their common "
+                                      "seeds (solved, Fisher's exact test against a baseline, survival plot)")
+    p.add_argument("variants", nargs="+", type=Path, help="experiment folders, one per variant (the folder name "
+                                                          "names the variant)")
+    p.add_argument("--baseline", required=True, help="the variant the others are tested against (a folder name)")
+    p.add_argument("--mode", choices=MODES, default="situational", help="mode compared (default %(default)s)")
+    p.add_argument("--out", type=Path, required=True, help="folder for screen.json, screen.md, survival.png")
+
+
+def cmd_screen(args) -> int:
+    from .experiment.screen import screen_markdown, write_screen
+
+    print(screen_markdown(write_screen(args.variants, args.baseline, args.out, args.mode)), end="")
+    return 0
+
+
 def cmd_experiment(args) -> int:
     from .experiment.plan import ExperimentPlan
     from .experiment.runner import run_experiment
@@ -333,6 +350,7 @@ def build_parser() -> argparse.ArgumentParser:
     _eval_parser(sub)
     _generalize_parser(sub)
     _experiment_parser(sub)
+    _screen_parser(sub)
     try:
         from .deploy import add_deploy_parser
     except ImportError:
@@ -354,6 +372,8 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
             return cmd_generalize(args)
         if args.command == "experiment":
             return cmd_experiment(args)
+        if args.command == "screen":
+            return cmd_screen(args)
         return int(args.func(args) or 0)
     except (ValueError, RuntimeError) as exc:
         print(f"mahn-evo: error: {exc}", file=sys.stderr)
