@@ -15,7 +15,7 @@ fig, axes = plt.subplots(1, 2, figsize=(10, 5.6), dpi=110)
 for ax, name in zip(axes, ["plus", "asymmetric_plus"]):
     w = load_map(name)
     draw_world(ax, w)
-    for k, (x, y, h) in enumerate(w.starts):
+    for x, y, h in w.starts:
         ax.plot(x, y, "o", color="C0", ms=5)
         ax.arrow(x, y, 6 * np.cos(h), 6 * np.sin(h), head_width=2, color="C0")
     ax.set_title(f"{name} (cm, y up)")

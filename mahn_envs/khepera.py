@@ -58,7 +58,7 @@ class KheperaModel:
         """Heading change of one turning tick, rounded to float32 as in the original."""
         return float(np.float32(np.float32(self.dt) * np.float32(self.turn_rate)))
 
-    def with_(self, **changes: float) -> "KheperaModel":
+    def with_(self, **changes: float) -> KheperaModel:
         return replace(self, **changes)
 
 

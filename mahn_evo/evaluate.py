@@ -6,7 +6,7 @@ ControllerPolicy.  Both paths share the task code, so the same team scores the s
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any, Optional
+from typing import Any
 
 import numpy as np
 
@@ -25,7 +25,7 @@ NOISE_PRESETS = {
 }
 
 
-def task_env(map: str, params: TaskParams, engine: str = "kinematic", render_mode: Optional[str] = None):
+def task_env(map: str, params: TaskParams, engine: str = "kinematic", render_mode: str | None = None):
     """The PettingZoo env of `map` with the task settings of `params` (its fitness sampling is the env's own)."""
     return patrol_return_v0.parallel_env(map=map, engine=engine, render_mode=render_mode,
                                          **{k: v for k, v in params.to_dict().items() if k != "sample_period"})
@@ -39,9 +39,9 @@ def task_params(noise: str = "none", **overrides: Any) -> TaskParams:
     return TaskParams(**kw)
 
 
-def evaluate_champion(champion: "Champion | str | Path", map: str = "plus", engine: str = "kinematic",
-                      episodes: int = 1, params: Optional[TaskParams] = None, seed: int = 0,
-                      video: "str | Path | None" = None, video_every: int = 4, video_scale: float = 1.0
+def evaluate_champion(champion: Champion | str | Path, map: str = "plus", engine: str = "kinematic",
+                      episodes: int = 1, params: TaskParams | None = None, seed: int = 0,
+                      video: str | Path | None = None, video_every: int = 4, video_scale: float = 1.0
                       ) -> dict[str, Any]:
     """Per-episode and mean team fitness and `solved`; writes a GIF of the first episode if `video`."""
     champ = champion if isinstance(champion, Champion) else Champion.load(champion)

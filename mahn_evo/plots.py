@@ -2,8 +2,8 @@
 from __future__ import annotations
 
 import csv
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Optional, Sequence
 
 import numpy as np
 
@@ -21,7 +21,7 @@ def _mpl():
     return plt
 
 
-def fitness_curve(log_csv: "str | Path", out_png: "str | Path", title: str = "") -> None:
+def fitness_curve(log_csv: str | Path, out_png: str | Path, title: str = "") -> None:
     """Best, best-ever and mean fitness per generation; the solved line at 100."""
     with open(log_csv) as f:
         rows = list(csv.DictReader(f))
@@ -64,8 +64,8 @@ def _circle(x, y, r, colour):
     return mpatches.Circle((x, y), r, fill=False, ls=":", color=colour)
 
 
-def trajectory_plot(world: World, trajectories: np.ndarray, out_png: "str | Path", title: str = "",
-                    signal_tick: Optional[int] = None) -> None:
+def trajectory_plot(world: World, trajectories: np.ndarray, out_png: str | Path, title: str = "",
+                    signal_tick: int | None = None) -> None:
     """Paths of every robot (trajectories (T+1, R, >=2)); dashed after the signal."""
     plt = _mpl()
     fig, ax = plt.subplots(figsize=(5, 5), dpi=110)
@@ -85,7 +85,7 @@ def trajectory_plot(world: World, trajectories: np.ndarray, out_png: "str | Path
     plt.close(fig)
 
 
-def save_gif(frames: Sequence[np.ndarray], out_path: "str | Path", fps: int = 15, scale: float = 1.0) -> None:
+def save_gif(frames: Sequence[np.ndarray], out_path: str | Path, fps: int = 15, scale: float = 1.0) -> None:
     """Write RGB frames as an animated GIF (Pillow), atomically.
 
     One shared palette (taken from the first, middle and last frames, so colours that appear late are in it)

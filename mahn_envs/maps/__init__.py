@@ -7,10 +7,11 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any
 
 import numpy as np
 
@@ -95,7 +96,7 @@ def world_from_dict(data: Mapping[str, Any], source: str = "<dict>") -> World:
     return world
 
 
-def load_map(map_spec: "str | Path | Mapping[str, Any] | World") -> World:
+def load_map(map_spec: str | Path | Mapping[str, Any] | World) -> World:
     """Load a built-in map by name, a map JSON file by path, or validate a mapping."""
     if isinstance(map_spec, World):
         return map_spec
