@@ -8,6 +8,7 @@ emulator cannot drift apart.
 from __future__ import annotations
 
 from dataclasses import dataclass, field, fields, replace
+from typing import Any
 
 import numpy as np
 
@@ -58,7 +59,7 @@ class KheperaModel:
         """Heading change of one turning tick, rounded to float32 as in the original."""
         return float(np.float32(np.float32(self.dt) * np.float32(self.turn_rate)))
 
-    def with_(self, **changes: float) -> KheperaModel:
+    def with_(self, **changes: Any) -> KheperaModel:
         return replace(self, **changes)
 
 

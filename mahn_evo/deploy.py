@@ -112,7 +112,7 @@ def deploy(champion_path: str | Path, ports: Sequence[str] | None = None, *,
             ports = emulator.ports
             kwargs["placement"] = emulator.place
             kwargs.setdefault("pose_source", emulator.poses)
-        with KheperaHardwareEnv(list(ports), **kwargs) as env, open(log_path, "w", newline="") as f:
+        with KheperaHardwareEnv(list(ports or ()), **kwargs) as env, open(log_path, "w", newline="") as f:
             writer = csv.writer(f, lineterminator="\n")
             writer.writerow(LOG_HEADER)
             policy = ControllerPolicy(team, env.possible_agents)

@@ -18,7 +18,7 @@ from .champion import Champion
 
 #: Noise of the generalisation test (issue: sensor noise, stochastic turning and locomotion, small start
 #: perturbations).  Levels are percentages / cm / rad as documented in TaskParams.
-NOISE_PRESETS = {
+NOISE_PRESETS: dict[str, dict[str, float]] = {
     "none": {},
     "generalization": {"sensor_noise": 5.0, "effector_noise": 10.0, "heading_noise": 0.005,
                        "start_jitter_xy": 2.0, "start_jitter_heading": 0.1},
@@ -34,7 +34,7 @@ def task_env(map: str, params: TaskParams, engine: str = "kinematic", render_mod
 def task_params(noise: str = "none", **overrides: Any) -> TaskParams:
     if noise not in NOISE_PRESETS:
         raise ValueError(f"unknown noise preset {noise!r}; choose one of {sorted(NOISE_PRESETS)}")
-    kw = dict(NOISE_PRESETS[noise])
+    kw: dict[str, Any] = dict(NOISE_PRESETS[noise])
     kw.update({k: v for k, v in overrides.items() if v is not None})
     return TaskParams(**kw)
 
@@ -67,7 +67,7 @@ def evaluate_champion(champion: Champion | str | Path, map: str = "plus", engine
             info = infos[env.possible_agents[0]]
             fits.append(info["team_fitness"])
             solved.append(info["solved"])
-            if frames is not None:
+            if frames is not None and video is not None:
                 from .plots import save_gif
 
                 save_gif(frames, video, fps=max(1, int(30 / video_every)), scale=video_scale)

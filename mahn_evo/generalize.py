@@ -47,11 +47,11 @@ def generalize(run_dir: str | Path, episodes: int = 25, map: str = "plus", param
     sim = BatchSim(map, n * episodes, params)
     batch = TeamControllers(*(np.repeat(getattr(teams, f), episodes, axis=0)
                               for f in ("w_ih", "w_hh", "w_ho", "b_h", "b_o")))
-    keys = np.tile(np.arange(episodes), n)
+    keys = np.tile(np.arange(episodes), n).tolist()
     res = sim.run_controllers(batch, seed=seed, episode_keys=keys)
     fit = res.fitness.reshape(n, episodes)
     solved = res.solved.reshape(n, episodes)
-    rows = []
+    rows: list[dict[str, Any]] = []
     for i, (f, c) in enumerate(zip(files, champs)):
         rows.append({"file": f.name, "generation": c.generation, "training_fitness": c.fitness,
                      "mean_fitness": float(fit[i].mean()), "std_fitness": float(fit[i].std()),

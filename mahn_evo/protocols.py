@@ -141,6 +141,8 @@ def sequential_episode(policy, map: str = "plus", params: TaskParams | None = No
     if len(set(posts)) != len(posts):  # two robots at one post: only the first keeps it
         seen: set[int] = set()
         for r in records:
+            if r.post is None:
+                continue
             if r.reached_post and r.post in seen:
                 r.reached_post = False
             seen.add(r.post)

@@ -104,7 +104,7 @@ def load_map(map_spec: str | Path | Mapping[str, Any] | World) -> World:
         return world_from_dict(map_spec)
     spec = str(map_spec)
     if spec in BUILTIN_MAPS:
-        text = resources.files(__package__).joinpath("data", f"{spec}.json").read_text()
+        text = resources.files(__package__).joinpath("data").joinpath(f"{spec}.json").read_text()
         return world_from_dict(json.loads(text), source=spec)
     path = Path(spec)
     if not path.exists():

@@ -99,7 +99,7 @@ class PatrolReturnEnv(ParallelEnv):
     original paper (> 100 iff `solved`).
     """
 
-    metadata = {"name": "patrol_return_v0", "render_modes": ["human", "rgb_array"], "render_fps": 30,
+    metadata: dict[str, Any] = {"name": "patrol_return_v0", "render_modes": ["human", "rgb_array"], "render_fps": 30,
                 "is_parallelizable": True}
 
     def __init__(self, map: str | World = "plus", engine: str = "kinematic", robots_see_each_other: bool = False,
@@ -191,8 +191,8 @@ class PatrolReturnEnv(ParallelEnv):
     def step(self, actions: dict):
         if not self.agents:
             raise RuntimeError("step() called on a finished episode; call reset() first")
-        for agent, a in zip(self.agents, coerce_actions(actions, self.agents, self.possible_agents)):
-            self._actions[self.agent_index[agent]] = a
+        for agent, action in zip(self.agents, coerce_actions(actions, self.agents, self.possible_agents)):
+            self._actions[self.agent_index[agent]] = action
         obs, reward, solved = self.engine.step(self._actions)
         done = self.sim.tick >= self.max_cycles
         observations = {a: obs[k].copy() for k, a in enumerate(self.agents)}

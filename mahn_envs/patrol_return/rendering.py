@@ -88,7 +88,7 @@ class Renderer:
         return np.transpose(self.pygame.surfarray.array3d(self.surface), (1, 0, 2)).astype(np.uint8).copy()
 
     def show(self) -> None:
-        if self.window is None:
+        if self.window is None or self.clock is None:
             return
         self.pygame.event.pump()
         self.window.blit(self.surface, (0, 0))
