@@ -179,6 +179,23 @@ def sequential_episode(policy, map: str = "plus", params: TaskParams | None = No
                             np.asarray(run.history) if record else None)
 
 
+#: What the sequential protocol counts as stages, three per robot, in the order they happen.
+SEQUENTIAL_STAGES = ("reached its own post", "came home when called", "went back out to its post")
+
+
+def sequential_summary(result: dict[str, Any], map: str) -> str:
+    """The result of :func:`sequential` for people: per episode, success and stages done out of possible, and
+    what a stage is (the numbers alone do not say)."""
+    lines = [f"sequential protocol on {map}:"]
+    for e, ep in enumerate(result["episodes"]):
+        possible = len(SEQUENTIAL_STAGES) * len(ep["robots"])
+        lines.append(f"  episode {e}: {'success' if ep['success'] else 'fail'}, "
+                     f"{ep['stages_completed']}/{possible} stages")
+    lines.append(f"  stages: {len(SEQUENTIAL_STAGES)} per robot: it " + ", it ".join(SEQUENTIAL_STAGES)
+                 + "; success = every stage of every robot")
+    return "\n".join(lines)
+
+
 def sequential(policy, map: str = "plus", params: TaskParams | None = None, episodes: int = 1, seed: int = 0,
                settings: SequentialSettings | None = None) -> dict[str, Any]:
     """Per-episode results of the sequential protocol.  `fitness` is the fraction of stages completed."""
