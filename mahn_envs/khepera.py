@@ -1,6 +1,6 @@
 """The simulated Khepera III: one definition shared by every engine, the env and the trainer.
 
-Every number here reproduces the original IROS 2011 simulator (see ``shared/reference``), expressed in our
+Every number here reproduces the original IROS 2011 simulator (docs/original-system.md), expressed in our
 frame (centimetres, seconds, radians, y up, heading counter-clockwise, positive relative angle = left).
 Keeping them in one frozen record means the batch core, the pymunk engine, the renderer and the hardware
 emulator cannot drift apart.

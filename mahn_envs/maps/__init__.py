@@ -63,7 +63,7 @@ def _list_of(value: Any, field: str, length: int, min_items: int) -> np.ndarray:
 
 
 def world_from_dict(data: Mapping[str, Any], source: str = "<dict>") -> World:
-    """Validate a map mapping (schema of DESIGN.md) and build a :class:`World`."""
+    """Validate a map mapping (schema in docs/architecture.md) and build a :class:`World`."""
     if not isinstance(data, Mapping):
         raise ValueError(f"map {source}: top level must be a JSON object")
     allowed = {"name", "description", "walls", "home", "pois", "starts"}

@@ -14,7 +14,8 @@ from tests.evo.helpers import random_genome
 
 
 # ----------------------------------------------------------------------------------------------------------------
-# Reference: the sheet's recursive activation, one query at a time, written independently of the plan compiler.
+# Reference: the original's recursive activation (docs/original-system.md section 6), one query at a time,
+# written independently of the plan compiler.
 def _act(name: str, x, dtype):
     return A.ACTIVATIONS[name][1](np.array([x], dtype=dtype))[0]
 
