@@ -41,7 +41,7 @@ def fitness_curve(log_csv: str | Path, out_png: str | Path, title: str = "") -> 
     if not rows:
         return
     fig = fitness_figure(rows, title)
-    fig.savefig(out_png)
+    fig.savefig(out_png, bbox_inches="tight")
     _mpl().close(fig)
 
 
@@ -53,7 +53,7 @@ def fitness_figure(rows: Sequence[Mapping[str, Any]], title: str = "") -> Figure
 
     gen = [int(r["generation"]) for r in rows]
     best_ever = [float(r["best_ever"]) for r in rows]
-    fig, ax = plt.subplots(figsize=(6.4, 3.8), dpi=110)
+    fig, ax = plt.subplots(figsize=(8.4, 3.8), dpi=110)
     ax.plot(gen, [float(r["mean_fitness"]) for r in rows], label="mean of each generation", color="#999999", lw=1)
     ax.plot(gen, [float(r["best_fitness"]) for r in rows], ".", label="best of each generation", color="#4285f4",
             ms=3)
@@ -71,7 +71,8 @@ def fitness_figure(rows: Sequence[Mapping[str, Any]], title: str = "") -> Figure
     ax.yaxis.set_minor_locator(NullLocator())
     ax.set_xlim(gen[0], gen[-1] + max(1, 0.08 * (gen[-1] - gen[0])))
     ax.set_title(title or "fitness")
-    ax.legend(loc="lower right", fontsize=8)
+    # beside the axes: inside, the curves of a short or a long run would each cover some corner
+    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, frameon=False)
     ax.grid(alpha=0.3)
     fig.tight_layout()
     return fig
