@@ -18,13 +18,15 @@ import csv
 import math
 import sys
 import time
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable, Optional, Sequence
+from typing import Any
 
 import numpy as np
 
 from mahn_envs.controllers import TeamControllers
+from mahn_envs.core.params import ORIGINAL_MAX_TICKS, ORIGINAL_SIGNAL_TICK
 from mahn_envs.policy import ControllerPolicy
 
 LOG_HEADER = ("tick", "time", "agent", "ir0", "ir1", "ir2", "ir3", "ir4", "ir5", "signal", "out_left",
@@ -39,11 +41,11 @@ class DeployResult:
     mean_period: float
     max_period: float
     overruns: int
-    team_fitness: Optional[float]
-    solved: Optional[bool]
+    team_fitness: float | None
+    solved: bool | None
 
 
-def load_team(path: "str | Path") -> tuple[TeamControllers, dict[str, Any]]:
+def load_team(path: str | Path) -> tuple[TeamControllers, dict[str, Any]]:
     """The controllers of a champion file (``{"controllers": {...}}``) or of a bare controllers file."""
     from .files import read_json_object
 
@@ -64,13 +66,14 @@ def _fmt(v: float) -> str:
     return "" if v is None or (isinstance(v, float) and not math.isfinite(v)) else f"{v:.6g}"
 
 
-def deploy(champion_path: "str | Path", ports: Optional[Sequence[str]] = None, *,
-           log_path: "str | Path | None" = None, map: Optional[str] = None, max_cycles: int = 1364,
-           signal_tick: int = 690, auto_signal: bool = True, placement: Any = "prompt",
-           time_scale: float = 1.0, forward_speed: Optional[float] = None, turn_rate: Optional[float] = None,
+def deploy(champion_path: str | Path, ports: Sequence[str] | None = None, *,
+           log_path: str | Path | None = None, map: str | None = None,
+           max_cycles: int = ORIGINAL_MAX_TICKS, signal_tick: int = ORIGINAL_SIGNAL_TICK, auto_signal: bool = True,
+           placement: Any = "prompt",
+           time_scale: float = 1.0, forward_speed: float | None = None, turn_rate: float | None = None,
            wheel_base: float = 8.85, speed_unit: Any = "auto", calibration: Any = "paper", reflex: bool = True,
            timeout: float = 0.4, attempts: int = 3, emulate: bool = False, emulator_seed: int = 0,
-           clock: Any = None, env_kwargs: Optional[dict] = None, on_tick: Optional[Callable[[int, dict], None]] = None,
+           clock: Any = None, env_kwargs: dict | None = None, on_tick: Callable[[int, dict], None] | None = None,
            quiet: bool = True) -> DeployResult:
     """Run the champion's team for one episode on the robots at `ports` and log every tick to CSV.
 
@@ -109,7 +112,7 @@ def deploy(champion_path: "str | Path", ports: Optional[Sequence[str]] = None, *
             ports = emulator.ports
             kwargs["placement"] = emulator.place
             kwargs.setdefault("pose_source", emulator.poses)
-        with KheperaHardwareEnv(list(ports), **kwargs) as env, open(log_path, "w", newline="") as f:
+        with KheperaHardwareEnv(list(ports or ()), **kwargs) as env, open(log_path, "w", newline="") as f:
             writer = csv.writer(f, lineterminator="\n")
             writer.writerow(LOG_HEADER)
             policy = ControllerPolicy(team, env.possible_agents)
@@ -163,8 +166,10 @@ def add_deploy_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--emulate", action="store_true", help="run against an in-process emulator instead of robots")
     p.add_argument("--log", default=None, help="CSV log path (default: deploy-<time>.csv next to the champion)")
     p.add_argument("--map", default=None, help="map for start poses and scoring (default: the champion's)")
-    p.add_argument("--max-cycles", type=int, default=1364, help="ticks to run (default 1364 = 45 s)")
-    p.add_argument("--signal-tick", type=int, default=690, help="tick of the come-home signal (default 690)")
+    p.add_argument("--max-cycles", type=int, default=ORIGINAL_MAX_TICKS,
+                   help="ticks to run (default %(default)s = 45 s, as the paper)")
+    p.add_argument("--signal-tick", type=int, default=ORIGINAL_SIGNAL_TICK,
+                   help="tick of the come-home signal (default %(default)s, as the paper)")
     p.add_argument("--no-auto-signal", action="store_true", help="no scheduled signal")
     p.add_argument("--placement", choices=["prompt", "none"], default="prompt",
                    help="prompt: wait for Enter after asking to place the robots; none: they are in place")
@@ -218,7 +223,7 @@ def run_deploy(args: argparse.Namespace) -> int:
     return 0
 
 
-def main(argv: Optional[Sequence[str]] = None) -> int:
+def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="mahn-evo")
     sub = parser.add_subparsers(dest="command", required=True)
     add_deploy_parser(sub)

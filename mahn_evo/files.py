@@ -12,8 +12,9 @@ import json
 import math
 import os
 import tempfile
+from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
-from typing import Any, Iterable, Mapping, Sequence
+from typing import Any
 
 FORMAT_VERSION = 1
 
@@ -27,7 +28,7 @@ def _default_mode() -> int:
     return 0o666 & ~umask
 
 
-def atomic_write_text(path: "str | Path", text: str) -> None:
+def atomic_write_text(path: str | Path, text: str) -> None:
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
@@ -50,7 +51,7 @@ def _jsonable(value: Any) -> Any:
     return value
 
 
-def atomic_write_json(path: "str | Path", data: Mapping[str, Any], compact: bool = False) -> None:
+def atomic_write_json(path: str | Path, data: Mapping[str, Any], compact: bool = False) -> None:
     """Indented for files people read; compact (C encoder, ~5x faster) for large machine files."""
     if compact:
         text = json.dumps(data, separators=(",", ":"), allow_nan=False, default=_jsonable)
@@ -59,7 +60,7 @@ def atomic_write_json(path: "str | Path", data: Mapping[str, Any], compact: bool
     atomic_write_text(path, text + "\n")
 
 
-def atomic_write_csv(path: "str | Path", header: Sequence[str], rows: Iterable[Sequence[Any]]) -> None:
+def atomic_write_csv(path: str | Path, header: Sequence[str], rows: Iterable[Sequence[Any]]) -> None:
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
     w.writerow(header)
@@ -67,7 +68,7 @@ def atomic_write_csv(path: "str | Path", header: Sequence[str], rows: Iterable[S
     atomic_write_text(path, buf.getvalue())
 
 
-def read_json_object(path: "str | Path", what: str) -> dict[str, Any]:
+def read_json_object(path: str | Path, what: str) -> dict[str, Any]:
     """A JSON object from a file; a missing file, corrupt JSON or another top level is a ValueError naming it."""
     path = Path(path)
     if not path.exists():
@@ -81,12 +82,12 @@ def read_json_object(path: "str | Path", what: str) -> dict[str, Any]:
     return data
 
 
-def read_versioned_json(path: "str | Path", kind: str) -> dict[str, Any]:
+def read_versioned_json(path: str | Path, kind: str) -> dict[str, Any]:
     """Load a file we wrote; a wrong kind, a newer/older version or corrupt JSON is a ValueError naming it."""
     return check_versioned(read_json_object(path, kind), path, kind)
 
 
-def check_versioned(data: dict[str, Any], path: "str | Path", kind: str) -> dict[str, Any]:
+def check_versioned(data: dict[str, Any], path: str | Path, kind: str) -> dict[str, Any]:
     if data.get("kind") != kind:
         raise ValueError(f"{str(path)!r} is not a mahn {kind} file (kind={data.get('kind')!r})")
     version = data.get("version")

@@ -7,10 +7,11 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any
 
 import numpy as np
 
@@ -62,7 +63,7 @@ def _list_of(value: Any, field: str, length: int, min_items: int) -> np.ndarray:
 
 
 def world_from_dict(data: Mapping[str, Any], source: str = "<dict>") -> World:
-    """Validate a map mapping (schema of DESIGN.md) and build a :class:`World`."""
+    """Validate a map mapping (schema in docs/architecture.md) and build a :class:`World`."""
     if not isinstance(data, Mapping):
         raise ValueError(f"map {source}: top level must be a JSON object")
     allowed = {"name", "description", "walls", "home", "pois", "starts"}
@@ -95,7 +96,7 @@ def world_from_dict(data: Mapping[str, Any], source: str = "<dict>") -> World:
     return world
 
 
-def load_map(map_spec: "str | Path | Mapping[str, Any] | World") -> World:
+def load_map(map_spec: str | Path | Mapping[str, Any] | World) -> World:
     """Load a built-in map by name, a map JSON file by path, or validate a mapping."""
     if isinstance(map_spec, World):
         return map_spec
@@ -103,7 +104,7 @@ def load_map(map_spec: "str | Path | Mapping[str, Any] | World") -> World:
         return world_from_dict(map_spec)
     spec = str(map_spec)
     if spec in BUILTIN_MAPS:
-        text = resources.files(__package__).joinpath("data", f"{spec}.json").read_text()
+        text = resources.files(__package__).joinpath("data").joinpath(f"{spec}.json").read_text()
         return world_from_dict(json.loads(text), source=spec)
     path = Path(spec)
     if not path.exists():

@@ -13,7 +13,8 @@ from pathlib import Path
 import pytest
 
 from mahn_envs.cli import main as envs_main
-from mahn_evo.deploy import add_deploy_parser, main as deploy_main
+from mahn_evo.deploy import add_deploy_parser
+from mahn_evo.deploy import main as deploy_main
 
 from ..envs.helpers import random_team
 
