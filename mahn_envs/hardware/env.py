@@ -53,7 +53,8 @@ Placement = Callable[[dict], None]
 
 def prompt_placement(targets: Mapping[str, Optional[tuple]], input_fn: Optional[Callable[[str], str]] = None,
                      print_fn: Callable[..., None] = print) -> None:
-    """Ask the operator to put the robots at their start poses and press Enter."""
+    """Ask the operator to put the robots at their start poses and press Enter.  Without a terminal (stdin at
+    its end) this is a RuntimeError that names ``--placement none``, not an EOFError traceback."""
     input_fn = input_fn if input_fn is not None else input
     print_fn("Place the robots (map frame: x right, y up, cm; heading in degrees, 90 = up):")
     for agent, pose in targets.items():
@@ -61,7 +62,12 @@ def prompt_placement(targets: Mapping[str, Optional[tuple]], input_fn: Optional[
             print_fn(f"  {agent}: anywhere safe")
         else:
             print_fn(f"  {agent}: x={pose[0]:.1f} y={pose[1]:.1f} heading={np.degrees(pose[2]) % 360:.0f} deg")
-    input_fn("Robots are stopped. Press Enter when they are in place... ")
+    try:
+        input_fn("Robots are stopped. Press Enter when they are in place... ")
+    except EOFError:
+        raise RuntimeError("the placement prompt needs someone to press Enter, but stdin is closed (no terminal); "
+                           "place the robots first and run with --placement none (placement='none' in Python)") \
+            from None
 
 
 def _no_placement(targets: Mapping[str, Any]) -> None:
