@@ -71,7 +71,7 @@ def deploy(champion_path: "str | Path", ports: Optional[Sequence[str]] = None, *
            wheel_base: float = 8.85, speed_unit: Any = "auto", calibration: Any = "paper", reflex: bool = True,
            timeout: float = 0.4, attempts: int = 3, emulate: bool = False, emulator_seed: int = 0,
            clock: Any = None, env_kwargs: Optional[dict] = None, on_tick: Optional[Callable[[int, dict], None]] = None,
-           quiet: bool = True) -> DeployResult:
+           quiet: bool = True, stop_wait: Optional[float] = None) -> DeployResult:
     """Run the champion's team for one episode on the robots at `ports` and log every tick to CSV.
 
     With ``emulate=True`` an in-process emulator stands in for the robots (`ports` must then be None); it
@@ -80,7 +80,9 @@ def deploy(champion_path: "str | Path", ports: Optional[Sequence[str]] = None, *
     Enter; needs a terminal or a line on stdin), "none" or a function {agent: pose} -> None.  The CSV log is
     created once the robots are placed, so a run that fails before that leaves no empty log.  `clock`
     (default: real time times `time_scale`) paces the env and the emulator; a VirtualClock runs lock-step.
-    Returns a :class:`DeployResult`; the robots are stopped whatever happens.
+    Returns a :class:`DeployResult`; the robots are stopped whatever happens.  A stop that a robot has not
+    confirmed is resent in the background: before returning (or raising) deploy waits up to `stop_wait`
+    seconds (None: until every robot confirms, or Ctrl-C) for it, since the resending ends with the program.
     """
     from mahn_envs.hardware import KheperaEmulator, KheperaHardwareEnv, RealClock, RetryPolicy
 
@@ -114,16 +116,41 @@ def deploy(champion_path: "str | Path", ports: Optional[Sequence[str]] = None, *
             ports = emulator.ports
             kwargs["placement"] = _emulator_placement(emulator, kwargs["placement"])
             kwargs.setdefault("pose_source", emulator.poses)
-        with KheperaHardwareEnv(list(ports), **kwargs) as env:
-            policy = ControllerPolicy(team, env.possible_agents)
-            # compile / load the network before the robots are placed, not inside the first control tick
-            policy.act({a: np.ones(7, dtype=np.float32) for a in env.possible_agents})
-            obs, infos = env.reset()
-            policy.reset()
-            return _run_episode(env, policy, team, obs, infos, clock, log_path, on_tick, quiet)
+        env = KheperaHardwareEnv(list(ports), **kwargs)
+        try:
+            with env:
+                policy = ControllerPolicy(team, env.possible_agents)
+                # compile / load the network before the robots are placed, not inside the first control tick
+                policy.act({a: np.ones(7, dtype=np.float32) for a in env.possible_agents})
+                obs, infos = env.reset()
+                policy.reset()
+                return _run_episode(env, policy, team, obs, infos, clock, log_path, on_tick, quiet)
+        finally:
+            _wait_for_stops(env, stop_wait)
     finally:
         if emulator is not None:
             emulator.stop()
+
+
+def _wait_for_stops(env: Any, stop_wait: Optional[float]) -> None:
+    """Keep the program (and so the background stop resending) alive until every robot confirmed its stop."""
+    pending = env.unconfirmed_stops
+    if not pending:
+        return
+    limit = "" if stop_wait is None else f" (at most {stop_wait:g} s)"
+    print(f"deploy: the stop of {pending} is not confirmed; resending it until the robot answers{limit}, "
+          "Ctrl-C to give up (then stop the robot by hand)", file=sys.stderr, flush=True)
+    try:
+        left = env.wait_stops(stop_wait)
+    except KeyboardInterrupt:
+        left = env.give_up_stops()
+        print(f"deploy: gave up on the stop of {left}: STOP THEM BY HAND", file=sys.stderr, flush=True)
+        raise
+    if left:
+        env.give_up_stops()
+        print(f"deploy: the stop of {left} is still not confirmed: STOP THEM BY HAND", file=sys.stderr, flush=True)
+    else:
+        print(f"deploy: stop of {pending} confirmed", file=sys.stderr, flush=True)
 
 
 def _emulator_placement(emulator: Any, placement: Any) -> Callable[[dict], None]:

@@ -526,7 +526,7 @@ class KheperaHardwareEnv(ParallelEnv):
                     self.last_stop_report[link.name] = NEVER_CONNECTED
                 continue
             stopper = self._stoppers.get(link.name)
-            if stopper is None or not stopper.thread.is_alive():
+            if stopper is None or not stopper.thread.is_alive():  # none running (a finished one is replaced)
                 stopper = _Stopper(self, link, policy.timeout)
                 self._stoppers[link.name] = stopper
                 with self._report_lock:
@@ -553,7 +553,7 @@ class KheperaHardwareEnv(ParallelEnv):
     @property
     def unconfirmed_stops(self) -> list[str]:
         """Robots whose stop is still being resent in the background."""
-        return [name for name, s in self._stoppers.items() if s.thread.is_alive()]
+        return [name for name, s in self._stoppers.items() if not s.confirmed.is_set()]
 
     def wait_stops(self, timeout: Optional[float] = None) -> list[str]:
         """Wait (at most `timeout` seconds) for the background stops to be confirmed; returns the robots

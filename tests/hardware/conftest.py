@@ -60,6 +60,9 @@ def make_env(make_emulator, vclock):
 def no_leaked_threads():
     before = set(threading.enumerate())
     yield
+    for t in threading.enumerate():
+        if t not in before and t.name.startswith("khepera-stop"):
+            t.join(2.0)  # a confirmed stop's thread may still be closing its link (pyserial waits 0.3 s)
     leaked = [t.name for t in threading.enumerate() if t not in before and t.is_alive()
               and t.name.startswith(("khepera-emulator", "khepera-stop"))]
     assert not leaked, f"emulator or stop threads left running: {leaked}"

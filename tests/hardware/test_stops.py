@@ -170,3 +170,30 @@ def test_stops_go_to_every_robot_in_parallel(make_env):
     assert max(s[0] for s in stops) < min(s[1] for s in stops), stops
     assert sorted(env.unconfirmed_stops) == ["robot_0", "robot_1", "robot_2"]
     assert env.give_up_stops() == ["robot_0", "robot_1", "robot_2"] and env.unconfirmed_stops == []
+
+
+def test_deploy_waits_until_an_unconfirmed_stop_is_confirmed(tmp_path, capsys, make_emulator, vclock):
+    # the background resending ends with the program: deploy must not return while a robot may still drive
+    import json
+
+    from mahn_evo.deploy import deploy
+
+    from ..envs.helpers import random_team
+
+    champ = tmp_path / "champion.json"
+    champ.write_text(json.dumps({"controllers": random_team(3).to_dict()}))
+    emu = make_emulator(clock=vclock)
+    ticks = []
+
+    def on_tick(tick, infos):
+        ticks.append(tick)
+        if tick == 3:
+            emu.inject(1, "delay", count=2, letters="D", delay=1.0)
+
+    with pytest.raises(RobotTimeout, match="robot_1"), warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        deploy(champ, emu.ports, clock=vclock, placement="none", timeout=0.2, attempts=2, on_tick=on_tick,
+               log_path=tmp_path / "log.csv", env_kwargs={"catch_sigterm": False})
+    assert emu.world.stopped(1) and last_command(emu, 1) == "D,l0,l0"  # deploy waited for the real stop
+    err = capsys.readouterr().err
+    assert "stop of ['robot_1'] is not confirmed" in err and "stop of ['robot_1'] confirmed" in err
