@@ -13,8 +13,10 @@ Same agents, spaces and step semantics as ``PatrolReturnEnv``: one observation p
 
 Safety: every robot is sent ``D,l0,l0`` on ``close()``, at the end of an episode, on any exception inside
 ``reset``/``step`` (including Ctrl-C and a robot that stops answering), at interpreter exit and on SIGTERM;
-the env is a context manager.  A robot whose link is dead cannot be reached by anyone: use a robot- or
-bridge-side watchdog for that case (docs/hardware.md).
+the env is a context manager.  On the error paths the stops go to all robots in parallel; a stop counts only
+when the robot answers that stop (transport.py), and one that is not confirmed is reported (a warning,
+``last_stop_report``) and resent in the background until it is.  A robot whose link is dead cannot be
+reached by anyone: it needs a robot-side watchdog (docs/hardware.md, section 4).
 
 Rewards need to know where the robots are: give ``pose_source`` (an overhead tracker; the emulator provides
 one) and the env scores the run with the simulator's own fitness code, so ``team_fitness`` / ``solved`` mean
@@ -567,12 +569,14 @@ class KheperaHardwareEnv(ParallelEnv):
         """Stop resending unconfirmed stops (you have stopped those robots by other means, e.g. switched them
         off) and close their links; returns the robots given up on.  Their report stays "unconfirmed"."""
         given_up = self.unconfirmed_stops
-        for stopper in list(self._stoppers.values()):
-            stopper.cancelled.set()
-        for name, stopper in list(self._stoppers.items()):
+        for name in given_up:
+            self._stoppers[name].cancelled.set()
+        for name in list(self._stoppers):
+            stopper = self._stoppers[name]
             stopper.thread.join(5.0)
             if not stopper.thread.is_alive():
-                stopper.link.close()
+                if name in given_up:
+                    stopper.link.close()
                 del self._stoppers[name]
         return given_up
 
