@@ -53,6 +53,7 @@ def test_a_late_drive_reply_is_not_taken_for_the_stop_acknowledgement(make_env):
     assert env.wait_stops(timeout=20.0) == []
     assert env.last_stop_report["robot_1"] is None
     assert emu.world.stopped(1) and last_command(emu, 1) == "D,l0,l0"
+    assert env.give_up_stops() == []  # nothing to give up; a confirmed robot's link stays open
     env.reset()  # the link is the env's again
     _drive(env, 2)
     assert not emu.world.stopped(1)
