@@ -1,6 +1,6 @@
 """Time from a fault to every robot stopped, on the emulator in real time: this checkout against a git revision.
 
-Three robots drive (real-time emulator on loopback; by default deploy's 0.4 s timeout and 3 attempts), then one
+Three robots drive (real-time emulator on loopback; by default deploy's 0.12 s timeout and 3 attempts), then one
 fault is injected just before a step:
   silent  - robot_1 stops answering for good (a dead robot or a dead line);
   delayed - robot_1 answers its next two D commands 2 s late each (a congested radio link);
@@ -10,7 +10,7 @@ a reply was counted.  Printed, in seconds: detect = fault to the error surfacing
 attempts), then from detection: each robot actually stopped, the stop report written (stop_all returned) and,
 for robot_1, the moment the report first said it was stopped (``false`` when that was before it really was).
 Both versions run in one process (the revision is imported from ``git archive`` as ``mahn_envs_ab``).
-Usage: python benchmarks/bench_stop_latency.py [--rev dafc457] [--repeats 3] [--timeout 0.4] [--attempts 3]
+Usage: python benchmarks/bench_stop_latency.py [--rev dafc457] [--repeats 3] [--timeout 0.12] [--attempts 3]
 """
 from __future__ import annotations
 
@@ -131,7 +131,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--rev", default="dafc457")
     ap.add_argument("--repeats", type=int, default=3)
-    ap.add_argument("--timeout", type=float, default=0.4, help="seconds per attempt (deploy's default 0.4)")
+    ap.add_argument("--timeout", type=float, default=0.12, help="seconds per attempt (deploy's default 0.12)")
     ap.add_argument("--attempts", type=int, default=3, help="attempts per command (deploy's default 3)")
     ap.add_argument("--scenarios", nargs="+", default=list(SCENARIOS), choices=SCENARIOS)
     args = ap.parse_args()

@@ -71,7 +71,7 @@ def deploy(champion_path: str | Path, ports: Sequence[str] | None = None, *,
            signal_tick: int = ORIGINAL_SIGNAL_TICK, auto_signal: bool = True, placement: Any = None,
            time_scale: float = 1.0, forward_speed: float | None = None, turn_rate: float | None = None,
            wheel_base: float = 8.85, speed_unit: Any = "auto", calibration: Any = "paper", reflex: bool = True,
-           timeout: float = 0.4, attempts: int = 3, emulate: bool = False, emulator_seed: int = 0,
+           timeout: float = 0.12, attempts: int = 3, emulate: bool = False, emulator_seed: int = 0,
            clock: Any = None, env_kwargs: dict | None = None, on_tick: Callable[[int, dict], None] | None = None,
            quiet: bool = True, stop_wait: float | None = None) -> DeployResult:
     """Run the champion's team for one episode on the robots at `ports` and log every tick to CSV.
@@ -233,7 +233,8 @@ def add_deploy_parser(subparsers) -> argparse.ArgumentParser:
                    help="firmware units per mm/s (default: from the B reply, 218.72 for firmware >= 3)")
     p.add_argument("--calibration", choices=["paper", "linear"], default="paper", help="raw IR -> [0, 1]")
     p.add_argument("--no-reflex", action="store_true", help="turn the collision-avoidance reflex off")
-    p.add_argument("--timeout", type=float, default=0.4, help="seconds to wait for a reply (default 0.4)")
+    p.add_argument("--timeout", type=float, default=0.12, help="seconds to wait for a reply before resending "
+                   "(default 0.12: with 3 attempts a silent robot is detected, and the others stopped, within 0.5 s)")
     p.add_argument("--attempts", type=int, default=3, help="tries per command (default 3)")
     p.add_argument("--seed", type=int, default=0, help="emulator noise seed (with --emulate)")
     p.set_defaults(func=run_deploy)

@@ -58,7 +58,9 @@ MAX_LINE = 256  # the longest valid reply (N) is about 80 characters
 class RetryPolicy:
     """Timeout per attempt (seconds of wall time), attempts per command, reopenings of a dropped link."""
 
-    timeout: float = 0.4  # the original deployment's read timeout
+    #: 0.12 s (the original deployment read with 0.4 s): 3 attempts detect a silent robot in 0.36 s, so every
+    #: reachable robot is stopped within 0.5 s of a fault; a reply 4 control ticks late is already a retry
+    timeout: float = 0.12
     attempts: int = 3
     reconnects: int = 1
     backoff: float = 0.0  # wall seconds between attempts
@@ -147,7 +149,7 @@ class RobotLink:
         if self._port is None:
             try:
                 # a short per-read timeout: whole-line deadlines are enforced here, not by pyserial
-                self._port = self.opener(self.url, min(self.policy.timeout, 0.05), self.baudrate)
+                self._port = self.opener(self.url, min(self.policy.timeout, 0.01), self.baudrate)
             except _link_errors() as exc:
                 raise LinkError(self.name, "(open)", f"cannot open {self.url!r}: {exc}") from exc
             self._buf.clear()  # a partial line of the old connection; the write queue is kept (module doc)

@@ -27,6 +27,6 @@ def test_hardware_guide_documents_the_watchdog_and_the_stop_reports():
     guide = (ROOT / "docs" / "hardware.md").read_text()
     section = guide[guide.index("## 4. Safety"):guide.index("## 5. The emulator")]
     for needed in ["A dead link", "watchdog", "kh3server", "--watchdog", "last_stop_report", "wait_stops",
-                   "give_up_stops", "bench_stop_latency.py", "--timeout 0.15"]:
+                   "give_up_stops", "bench_stop_latency.py", "--timeout 0.12"]:
         assert needed in section, needed
     assert "--placement none" in guide or "use `none`" in guide
