@@ -114,19 +114,26 @@ class Trainer:
 
     def _resume(self, ckpt: Path) -> None:
         data = read_checked_json(ckpt, "checkpoint")
+        where = f"checkpoint file {str(ckpt)!r} is malformed"
         try:
             if not isinstance(data.get("config"), dict):
                 raise KeyError("config")
             self._check_same_run(data["config"])
+        except (KeyError, TypeError, AttributeError, IndexError) as exc:
+            raise ValueError(f"{where}: missing or wrong field {exc}") from exc
+        try:
             self.population = Population.from_dict(data["population"])
             t = data["trainer"]
             self.best_fitness = -np.inf if t["best_fitness"] is None else float(t["best_fitness"])
             self.first_solved = None if t["first_solved"] is None else int(t["first_solved"])
             self.archived_fitness = -np.inf if t["archived_fitness"] is None else float(t["archived_fitness"])
             self.wall = float(t["wall_seconds"])
-            self.rows = list(t["log"])
-        except (KeyError, TypeError, AttributeError, IndexError) as exc:
-            raise ValueError(f"checkpoint file {str(ckpt)!r} is malformed: missing or wrong field {exc}") from exc
+            self.rows = t["log"]
+            if not isinstance(self.rows, list) or not all(isinstance(r, list) and len(r) == len(LOG_HEADER)
+                                                          for r in self.rows):
+                raise TypeError(f"'log' must hold rows of {len(LOG_HEADER)} values ({', '.join(LOG_HEADER)})")
+        except (KeyError, TypeError, ValueError, AttributeError, IndexError) as exc:
+            raise ValueError(f"{where}: missing or wrong field {exc}") from exc
         state = self.population.settings.to_dict()
         asked = self.config.neat.to_dict()
         differing = sorted(k for k in set(state) | set(asked) if state.get(k) != asked.get(k))
