@@ -220,7 +220,7 @@ def test_cli_bad_paths_and_values_give_one_line_errors(tmp_path, champion_file, 
     a_file = tmp_path / "file.txt"
     a_file.write_text("x")
     champ = _write(tmp_path, champion_file)
-    (tmp_path / "c.json").write_bytes(b'{"seed": "\xff\xfe"}')
+    (tmp_path / "latin.json").write_bytes(b'{"seed": "\xff\xfe"}')
     new = tmp_path / "new"
     train_args = ["train", "--generations", "1", "--pop", "16", "--quiet", "--out"]
     args = {
@@ -230,7 +230,7 @@ def test_cli_bad_paths_and_values_give_one_line_errors(tmp_path, champion_file, 
         "seed_too_big": train_args + [str(new), "--seed", str(2**64)],
         "seed_negative": train_args + [str(new), "--seed", "-1"],
         "config_is_dir": train_args + [str(new), "--config", str(tmp_path)],
-        "config_not_utf8": train_args + [str(new), "--config", str(tmp_path / "c.json")],
+        "config_not_utf8": train_args + [str(new), "--config", str(tmp_path / "latin.json")],
         "champion_is_dir": ["eval", str(tmp_path)],
         "eval_seed_too_big": ["eval", str(champ), "--seed", str(2**70)],
         "video_is_dir": ["eval", str(champ), "--video", str(tmp_path)],
