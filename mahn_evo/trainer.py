@@ -3,13 +3,17 @@
 Run folder:
   config.json      the resolved TrainConfig
   log.csv          one row per generation (fitness, species, solved, evaluations, seconds)
-  checkpoint.json  full NEAT state + trainer state after the last finished generation (atomic); --resume
+  checkpoint.json  full NEAT state + trainer state after the last finished generation (atomic, with the sha256
+                   of its content: a changed digit is refused, not resumed as another run); --resume
                    continues from it bit-identically
   champion.json    best team so far (CPPN + decoded controllers)
   archive/         every solved champion that improved on the last archived one (the generalisation test
                    picks among all solutions a run found)
   summary.json     mode, seed, generations, best_fitness, solved, first_solved_generation, wall time
   fitness.png      the fitness curve
+
+A fresh run refuses a folder that holds another run (--overwrite removes it first); `mahn-evo train` and each
+experiment worker hold the folder's lock (folder_lock.py) while they write.
 """
 from __future__ import annotations
 

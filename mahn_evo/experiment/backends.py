@@ -3,6 +3,8 @@
 A run is a pure function of its TrainConfig, so both backends give bit-identical run folders for the same
 seeds; the backend only decides where the work happens.  Every run checkpoints each generation, so an
 interrupted experiment (Ctrl-C, a lost node) loses at most one generation per run when it is started again.
+Local workers die with the experiment process, even when it is killed by SIGKILL (`die_with_parent`), and each
+run holds its folder's lock while it writes, so a rerun never works beside the orphans of a killed one.
 
 With Ray on more than one machine the experiment folder must be on a file system every node sees (NFS, a
 mounted bucket): the runs write their files there, as they do locally.
