@@ -2,8 +2,9 @@
 
 A population of 500 (situational, the paper's seed genome) is bred for some generations with random fitness
 (no simulation: only the state's size matters), with a log of 1000 rows as at the end of a paper-scale run;
-then Trainer._checkpoint is timed (CPU time, steady on a shared machine, and wall time), alternating between this checkout and the revision (each in its own
-process: the two versions cannot share one interpreter), and the minimum of each is compared.
+then Trainer._checkpoint is timed (CPU time, steady on a shared machine, and wall time with the fsync),
+alternating between this checkout and the revision (each in its own process: the two versions cannot share
+one interpreter), and the minimum of each is compared.
 Usage: python benchmarks/bench_checkpoint.py [--rev dafc457] [--pop 500] [--generations 30] [--repeats 5]
 """
 from __future__ import annotations

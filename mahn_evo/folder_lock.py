@@ -76,7 +76,10 @@ def folder_lock(folder: "str | Path", what: str = "folder") -> Iterator[Path]:
     its pid.  A folder this call created and left empty is removed again, so a refused start leaves nothing."""
     folder = check_folder_usable(folder, what)
     created = not folder.exists()
-    folder.mkdir(parents=True, exist_ok=True)
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise ValueError(f"{what} {str(folder)!r} cannot be created: {exc.strerror or exc}") from exc
     path = folder / LOCK_NAME
     fd = _try_lock(path)
     if fd is None:
