@@ -249,3 +249,7 @@ def test_seed_limits_in_the_config():
     for bad in (1.5, "3", True):
         with pytest.raises((TypeError, ValueError), match="seed"):
             small(seed=bad)
+    from mahn_evo.experiment import ExperimentPlan
+
+    with pytest.raises(ValueError, match=r"seed of the last run"):
+        ExperimentPlan(seed=2**64 - 1, runs=2)  # run 2 would get seed 2**64
