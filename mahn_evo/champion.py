@@ -80,21 +80,27 @@ def _count(value: Any, field: str) -> int:
     return value
 
 
+#: the ways a run may have decoded its CPPNs (activation, evaluate_modules); a champion file does not say which
+DECODINGS = (("recursive", True), ("recursive", False), ("relax", True))
+
+
 def _check_controllers_match_cppn(champ: Champion, where: str) -> None:
-    """The stored controllers must be what the CPPN decodes to (with or without the seed's Multiply modules
-    evaluated: the file does not say which the run used), or the file mixes two teams."""
-    from .cppn import compile_cppn
+    """The stored controllers must be what the CPPN decodes to under one of the run settings that decide decoding
+    (DECODINGS), or the file mixes two teams or was edited."""
+    from .cppn import compile_genome
     from .substrate import decode_population
 
     ctrl = champ.controllers
     if ctrl.batched or ctrl.mode != champ.mode:
         raise ValueError(f"{where}: its controllers are a {ctrl.mode} team{' batch' if ctrl.batched else ''}, but "
                          f"field 'mode' says {champ.mode!r}")
-    try:
-        decoded = [decode_population([compile_cppn(champ.genome, evaluate_modules=m)], champ.mode,
-                                     ctrl.n_robots).team(0) for m in (True, False)]
-    except (ValueError, IndexError, KeyError) as exc:
-        raise ValueError(f"{where}: its CPPN cannot be decoded for mode {champ.mode!r} ({exc})") from exc
-    if not any(all(np.array_equal(getattr(d, f), getattr(ctrl, f)) for f in CONTROLLER_FIELDS) for d in decoded):
-        raise ValueError(f"{where}: field 'controllers' does not match what field 'cppn' decodes to (the file "
-                         "was edited, or mixes two teams)")
+    for activation, modules in DECODINGS:
+        try:
+            decoded = decode_population([compile_genome(champ.genome, activation, modules)], champ.mode,
+                                        ctrl.n_robots).team(0)
+        except (ValueError, IndexError, KeyError) as exc:
+            raise ValueError(f"{where}: its CPPN cannot be decoded for mode {champ.mode!r} ({exc})") from exc
+        if all(np.array_equal(getattr(decoded, f), getattr(ctrl, f)) for f in CONTROLLER_FIELDS):
+            return
+    raise ValueError(f"{where}: field 'controllers' does not match what field 'cppn' decodes to (the file was "
+                     "edited, or mixes two teams)")

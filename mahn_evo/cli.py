@@ -8,7 +8,30 @@ from pathlib import Path
 from typing import Optional, Sequence
 
 from .config import INITS, TrainConfig, load_config_file
+from .cppn import CPPN_ACTIVATIONS
+from .evaluate import NOISE_PRESETS
+from .evaluator import AGGREGATES, NOISE_DRAWS
+from .presets import PRESETS, apply_preset
 from .substrate import MODES
+
+
+def _fidelity_and_robustness_options(p: argparse.ArgumentParser) -> None:
+    """Options shared by `train` and `experiment` (all default to None: the preset or the defaults decide)."""
+    p.add_argument("--preset", choices=sorted(PRESETS),
+                   help="a named configuration: iros2011-code (the original code's behaviour) or iros2011-paper "
+                        "(the paper's text where it differs); flags and --config override it")
+    p.add_argument("--cppn-activation", choices=CPPN_ACTIVATIONS,
+                   help="recursive (default: the original's one depth-first pass, recurrent CPPN links add 0) or "
+                        "relax (its MultipleSteps relaxation: modules and recurrent links live)")
+    p.add_argument("--noise", choices=sorted(NOISE_PRESETS),
+                   help="task noise during training (default none); with --episodes K > 1 teams are scored on K "
+                        "noisy episodes")
+    p.add_argument("--noise-draws", choices=NOISE_DRAWS,
+                   help="fixed (default: the same K episodes every generation) or per_generation (new episodes "
+                        "each generation, the same for every team of a generation)")
+    p.add_argument("--aggregate", choices=AGGREGATES,
+                   help="team fitness from its K episodes: mean (default), min or quantile (see --quantile)")
+    p.add_argument("--quantile", type=float, help="the quantile of --aggregate quantile (default 0.25)")
 
 
 def _train_parser(sub) -> None:
@@ -29,6 +52,7 @@ def _train_parser(sub) -> None:
     p.add_argument("--after-solved", type=int, metavar="G",
                    help="with --stop-when-solved, run G more generations so the archive gathers alternative "
                         "solutions for the generalisation test (default 0)")
+    _fidelity_and_robustness_options(p)
     p.add_argument("--config", type=Path, help="TOML or JSON file with TrainConfig fields (flags override it)")
     p.add_argument("--out", type=Path, default=Path("runs/latest"), help="run folder (default runs/latest)")
     p.add_argument("--resume", action="store_true", help="continue the run in --out from its checkpoint")
@@ -80,9 +104,11 @@ def _experiment_parser(sub) -> None:
     p.add_argument("--seed", type=int, default=d.seed, help="run i of each mode uses seed+i (default %(default)s)")
     p.add_argument("--generations", type=int, default=d.generations, help="at most (default %(default)s)")
     p.add_argument("--pop", type=int, default=d.population, help="population (default %(default)s)")
-    p.add_argument("--init", choices=INITS, default=d.init, help="initial population (default %(default)s)")
-    p.add_argument("--evaluate-modules", action=argparse.BooleanOptionalAction, default=d.evaluate_modules,
-                   help="evaluate the seed's Multiply modules (default %(default)s)")
+    p.add_argument("--init", choices=INITS, help=f"initial population (default {d.init})")
+    p.add_argument("--evaluate-modules", action=argparse.BooleanOptionalAction, default=None,
+                   help=f"evaluate the seed's Multiply modules (default {d.evaluate_modules})")
+    p.add_argument("--episodes", type=int, help="episodes per team per generation (default 1)")
+    _fidelity_and_robustness_options(p)
     p.add_argument("--map", default=d.map, help="training map (default %(default)s)")
     p.add_argument("--after-solved", type=int, default=d.after_solved,
                    help="generations a run continues after its first solution, so the generalisation test has "
@@ -107,19 +133,43 @@ def _experiment_parser(sub) -> None:
                         "runs in another shell)")
 
 
+def _screen_parser(sub) -> None:
+    p = sub.add_parser("screen", help="compare experiment folders of candidate configurations on their common "
+                                      "seeds (solved, Fisher's exact test against a baseline, survival plot)")
+    p.add_argument("variants", nargs="+", type=Path, help="experiment folders, one per variant (the folder name "
+                                                          "names the variant)")
+    p.add_argument("--baseline", required=True, help="the variant the others are tested against (a folder name)")
+    p.add_argument("--mode", choices=MODES, default="situational", help="mode compared (default %(default)s)")
+    p.add_argument("--out", type=Path, required=True, help="folder for screen.json, screen.md, survival.png")
+
+
+def cmd_screen(args) -> int:
+    from .experiment.screen import screen_markdown, write_screen
+
+    print(screen_markdown(write_screen(args.variants, args.baseline, args.out, args.mode)), end="")
+    return 0
+
+
 def cmd_experiment(args) -> int:
     from .experiment.plan import ExperimentPlan
     from .experiment.runner import run_experiment
 
-    neat = {}
+    base = apply_preset(TrainConfig(), args.preset) if args.preset else TrainConfig()
     if args.config:
-        neat = {k: v for k, v in load_config_file(args.config).neat.to_dict().items()
-                if v != TrainConfig().neat.to_dict().get(k)}
+        base = load_config_file(args.config, base)
+    neat = {k: v for k, v in base.neat.to_dict().items() if v != TrainConfig().neat.to_dict().get(k)}
+    d = ExperimentPlan()
+    chosen = {"init": args.init, "evaluate_modules": args.evaluate_modules, "cppn_activation": args.cppn_activation,
+              "noise": args.noise, "episodes": args.episodes, "noise_draws": args.noise_draws,
+              "aggregate": args.aggregate, "quantile": args.quantile}
+    from_base = {k: getattr(base, k) for k in ("init", "evaluate_modules", "cppn_activation", "episodes",
+                                                "noise_draws", "aggregate", "quantile")
+                 if args.preset or args.config}
+    fields = {k: getattr(d, k) for k in chosen} | from_base | {k: v for k, v in chosen.items() if v is not None}
     plan = ExperimentPlan(modes=tuple(args.modes), runs=args.runs, seed=args.seed, generations=args.generations,
-                          population=args.pop, init=args.init, evaluate_modules=args.evaluate_modules, map=args.map,
-                          after_solved=args.after_solved, top=args.top, general_episodes=args.general_episodes,
-                          transfer_episodes=args.transfer_episodes, max_cycles=args.max_cycles,
-                          signal_tick=args.signal_tick, neat=neat)
+                          population=args.pop, map=args.map, after_solved=args.after_solved, top=args.top,
+                          general_episodes=args.general_episodes, transfer_episodes=args.transfer_episodes,
+                          max_cycles=args.max_cycles, signal_tick=args.signal_tick, neat=neat, **fields)
     import signal
 
     def _terminate(signum, frame):  # `kill PID` stops the workers too, like Ctrl-C
@@ -181,15 +231,23 @@ def _progress_printer(quiet: bool, total: int):
 def cmd_train(args) -> int:
     from .trainer import Trainer
 
-    base = load_config_file(args.config) if args.config else TrainConfig()
+    base = TrainConfig()
+    if args.preset:
+        base = apply_preset(base, args.preset)
+    if args.config:
+        base = load_config_file(args.config, base)
     overrides = dict(mode=args.mode, generations=args.generations, pop=args.pop, seed=args.seed, init=args.init,
                      map=args.map, episodes=args.episodes, evaluate_modules=args.evaluate_modules,
-                     stop_when_solved=args.stop_when_solved, after_solved=args.after_solved)
-    if args.resume and (args.out / "config.json").exists() and not args.config:
+                     stop_when_solved=args.stop_when_solved, after_solved=args.after_solved,
+                     cppn_activation=args.cppn_activation, noise_draws=args.noise_draws, aggregate=args.aggregate,
+                     quantile=args.quantile)
+    if args.resume and (args.out / "config.json").exists() and not args.config and not args.preset:
         from .files import read_versioned_json
 
         base = TrainConfig.from_saved(read_versioned_json(args.out / "config.json", "config"))
     config = base.with_overrides(**overrides)
+    if args.noise is not None:
+        config = config.with_noise(args.noise)
     from .folder_lock import folder_lock
 
     with folder_lock(args.out, "run folder"):
@@ -299,6 +357,7 @@ def build_parser() -> argparse.ArgumentParser:
     _eval_parser(sub)
     _generalize_parser(sub)
     _experiment_parser(sub)
+    _screen_parser(sub)
     try:
         from .deploy import add_deploy_parser
     except ImportError:
@@ -320,6 +379,8 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
             return cmd_generalize(args)
         if args.command == "experiment":
             return cmd_experiment(args)
+        if args.command == "screen":
+            return cmd_screen(args)
         return int(args.func(args) or 0)
     except (ValueError, TypeError, RuntimeError, OSError) as exc:  # OSError: an unwritable or missing path, a full disk
         print(f"mahn-evo: error: {exc}", file=sys.stderr)

@@ -14,6 +14,8 @@ from typing import Any, Mapping
 from mahn_envs.core import TaskParams
 from mahn_envs.core.rng import check_seed
 
+from .cppn import CPPN_ACTIVATIONS
+from .evaluator import AGGREGATES, NOISE_DRAWS
 from .neat.settings import NeatSettings, with_legacy_values
 from .substrate import MODES
 
@@ -34,7 +36,14 @@ class TrainConfig:
     init: str = "iros2011"
     map: str = "plus"
     evaluate_modules: bool = True
+    #: "recursive": the original's one depth-first CPPN pass; "relax": its MultipleSteps relaxation (modules and
+    #: recurrent CPPN links live; see mahn_evo/cppn/relax.py)
+    cppn_activation: str = "recursive"
+    #: episodes per team per generation; with noise in `task` (robust evaluation) see TeamEvaluator
     episodes: int = 1
+    noise_draws: str = "fixed"
+    aggregate: str = "mean"
+    quantile: float = 0.25
     stop_when_solved: bool = False
     #: with stop_when_solved, generations still run after the first solution so the archive gathers the
     #: alternative solutions the generalisation test chooses among (0 = stop at once)
@@ -48,6 +57,16 @@ class TrainConfig:
             raise ValueError(f"mode must be one of {MODES}, got {self.mode!r}")
         if self.init not in INITS:
             raise ValueError(f"init must be one of {INITS}, got {self.init!r}")
+        for name, allowed in (("cppn_activation", CPPN_ACTIVATIONS), ("noise_draws", NOISE_DRAWS),
+                              ("aggregate", AGGREGATES)):
+            if getattr(self, name) not in allowed:
+                raise ValueError(f"{name} must be one of {allowed}, got {getattr(self, name)!r}")
+        if isinstance(self.quantile, bool) or not isinstance(self.quantile, (int, float)) \
+                or not 0.0 <= self.quantile <= 1.0:
+            raise ValueError(f"quantile must be a number in [0, 1], got {self.quantile!r}")
+        if self.cppn_activation == "relax" and not self.evaluate_modules:
+            raise ValueError("cppn_activation 'relax' always evaluates the Multiply modules (as the original's "
+                             "MultipleSteps does): it cannot be combined with evaluate_modules = false")
         if self.neat.evaluate_modules:  # a NEAT-level leftover: the trainer reads the top-level flag only
             raise ValueError("set evaluate_modules at the top level of the configuration, not under `neat`")
         for name in ("generations", "episodes", "checkpoint_every"):
@@ -90,6 +109,17 @@ class TrainConfig:
         data = {k: v for k, v in data.items() if k not in ("kind", "version")}
         return cls.from_mapping({**data, "neat": with_legacy_values(data.get("neat", {}))})
 
+    def with_noise(self, preset: str) -> "TrainConfig":
+        """This configuration with the task noise of a named preset (see mahn_evo.evaluate.NOISE_PRESETS)."""
+        from .evaluate import NOISE_PRESETS
+
+        if preset not in NOISE_PRESETS:
+            raise ValueError(f"unknown noise preset {preset!r}; known: {sorted(NOISE_PRESETS)}")
+        noise_free = {k: 0.0 for k in ("sensor_noise", "effector_noise", "heading_noise", "start_jitter_xy",
+                                        "start_jitter_heading")}
+        task = {**self.task.to_dict(), **noise_free, **NOISE_PRESETS[preset]}
+        return replace(self, task=TaskParams.from_mapping(task))
+
     def with_overrides(self, **changes: Any) -> "TrainConfig":
         """Apply CLI-style overrides; `pop` is a shortcut for neat.population_size."""
         changes = {k: v for k, v in changes.items() if v is not None}
@@ -105,7 +135,8 @@ def _has_species_fields(neat: NeatSettings) -> bool:
     return {"species_count_min", "species_count_max"} <= {f.name for f in fields(neat)}
 
 
-def load_config_file(path: "str | Path") -> TrainConfig:
+def load_config_file(path: "str | Path", base: "TrainConfig | None" = None) -> TrainConfig:
+    """A TrainConfig from a TOML/JSON file; the file's fields (and its `neat`/`task` keys) override `base`."""
     p = Path(path)
     if not p.exists():
         raise ValueError(f"config file {str(p)!r} does not exist")
@@ -121,4 +152,12 @@ def load_config_file(path: "str | Path") -> TrainConfig:
         raise ValueError(f"config file {str(p)!r} is not valid {p.suffix[1:].upper() or 'JSON'}: {exc!r}") from exc
     if not isinstance(data, dict):
         raise ValueError(f"config file {str(p)!r} must hold a table (JSON object) of TrainConfig fields")
-    return TrainConfig.from_mapping(data)
+    if base is None:
+        return TrainConfig.from_mapping(data)
+    merged = {**base.to_dict(), **data}
+    for table in ("neat", "task"):
+        if table in data:
+            if not isinstance(data[table], dict):
+                raise ValueError(f"config file {str(p)!r}: `{table}` must be a table")
+            merged[table] = {**base.to_dict()[table], **data[table]}
+    return TrainConfig.from_mapping(merged)

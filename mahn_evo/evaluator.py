@@ -14,22 +14,35 @@ from mahn_envs.controllers import TeamControllers
 from mahn_envs.core import BatchSim, TaskParams
 from mahn_envs.maps import load_map
 
-from .cppn import compile_cppn
+from .cppn import CPPN_ACTIVATIONS, compile_genome
 from .substrate import decode_population
+
+#: How a team's fitness is taken from its episodes: "fixed" draws (episode keys 0..K-1 every generation) or fresh
+#: draws per generation (keys g*K .. g*K+K-1, the same for every team of generation g: common random numbers).
+NOISE_DRAWS = ("fixed", "per_generation")
+#: How the K episode fitnesses of a team become its fitness.
+AGGREGATES = ("mean", "min", "quantile")
 
 
 @dataclass
 class Evaluation:
-    fitness: np.ndarray  # (N,) mean team fitness over the episodes
+    fitness: np.ndarray  # (N,) team fitness: the episodes' fitness aggregated (mean, min or a quantile)
     solved: np.ndarray  # (N,) fraction of episodes solved
     controllers: TeamControllers  # batch (N, R, K, ...)
 
 
 class TeamEvaluator:
-    """Scores genomes as teams on one map.  Deterministic: episodes are keyed, not drawn from shared state."""
+    """Scores genomes as teams on one map.  Deterministic: episodes are keyed, not drawn from shared state.
+
+    Robust evaluation: with noise in `params`, `episodes` = K > 1 and ``noise_draws="per_generation"`` every team
+    of a generation meets the same K noisy episodes (common random numbers: teams are compared on equal luck) and
+    each generation meets new ones (a team cannot be selected for one lucky draw); ``aggregate`` "min" or
+    "quantile" scores a team by its bad episodes rather than its mean.
+    """
 
     def __init__(self, mode: str, map: str = "plus", params: Optional[TaskParams] = None, episodes: int = 1,
-                 seed: int = 0, evaluate_modules: bool = False) -> None:
+                 seed: int = 0, evaluate_modules: bool = False, cppn_activation: str = "recursive",
+                 noise_draws: str = "fixed", aggregate: str = "mean", quantile: float = 0.25) -> None:
         self.mode = mode
         self.world = load_map(map)
         self.params = params if params is not None else TaskParams()
@@ -38,10 +51,22 @@ class TeamEvaluator:
         self.episodes = episodes
         self.seed = seed
         self.evaluate_modules = evaluate_modules
+        if cppn_activation not in CPPN_ACTIVATIONS:
+            raise ValueError(f"cppn_activation must be one of {CPPN_ACTIVATIONS}, got {cppn_activation!r}")
+        if noise_draws not in NOISE_DRAWS:
+            raise ValueError(f"noise_draws must be one of {NOISE_DRAWS}, got {noise_draws!r}")
+        if aggregate not in AGGREGATES:
+            raise ValueError(f"aggregate must be one of {AGGREGATES}, got {aggregate!r}")
+        if not 0.0 <= quantile <= 1.0:
+            raise ValueError(f"quantile must be in [0, 1], got {quantile!r}")
+        self.cppn_activation = cppn_activation
+        self.noise_draws = noise_draws
+        self.aggregate = aggregate
+        self.quantile = quantile
         self._sims: dict[int, BatchSim] = {}
 
     def decode(self, genomes: Sequence) -> TeamControllers:
-        plans = [compile_cppn(g, evaluate_modules=self.evaluate_modules) for g in genomes]
+        plans = [compile_genome(g, self.cppn_activation, self.evaluate_modules) for g in genomes]
         return decode_population(plans, self.mode, self.world.n_robots)
 
     def _sim(self, n: int) -> BatchSim:
@@ -49,20 +74,35 @@ class TeamEvaluator:
             self._sims = {n: BatchSim(self.world, n, self.params)}
         return self._sims[n]
 
-    def score(self, controllers: TeamControllers) -> tuple[np.ndarray, np.ndarray]:
-        """Mean fitness and solved fraction of each team over `episodes` keyed episodes."""
+    def episode_keys(self, generation: int = 0) -> list[int]:
+        """The keys of the episodes every team of `generation` is scored on."""
+        first = generation * self.episodes if self.noise_draws == "per_generation" else 0
+        return list(range(first, first + self.episodes))
+
+    def score(self, controllers: TeamControllers, generation: int = 0) -> tuple[np.ndarray, np.ndarray]:
+        """Aggregated fitness and solved fraction of each team over its keyed episodes."""
         ctrl = controllers.as_batch()
         n = ctrl.w_ih.shape[0]
         sim = self._sim(n)
-        fit = np.zeros(n)
+        keys = self.episode_keys(generation)
+        fits = np.zeros((len(keys), n))
         solved = np.zeros(n)
-        for e in range(self.episodes):
-            res = sim.run_controllers(ctrl, seed=self.seed, episode_keys=np.full(n, e))
-            fit += res.fitness
+        for e, key in enumerate(keys):
+            res = sim.run_controllers(ctrl, seed=self.seed, episode_keys=np.full(n, key))
+            fits[e] = res.fitness
             solved += res.solved
-        return fit / self.episodes, solved / self.episodes
+        if self.aggregate == "min":
+            fit = fits.min(axis=0)
+        elif self.aggregate == "quantile":
+            fit = np.quantile(fits, self.quantile, axis=0)
+        else:  # the mean, summed in episode order (as before: bit-identical for old runs)
+            fit = np.zeros(n)
+            for e in range(len(keys)):
+                fit += fits[e]
+            fit = fit / len(keys)
+        return fit, solved / len(keys)
 
-    def evaluate(self, genomes: Sequence) -> Evaluation:
+    def evaluate(self, genomes: Sequence, generation: int = 0) -> Evaluation:
         controllers = self.decode(genomes)
-        fitness, solved = self.score(controllers)
+        fitness, solved = self.score(controllers, generation)
         return Evaluation(fitness, solved, controllers)

@@ -71,7 +71,9 @@ class Trainer:
         self.config = config
         self.out = check_folder_usable(out_dir, "run folder")
         self.evaluator = TeamEvaluator(config.mode, config.map, config.task, config.episodes, seed=config.seed,
-                                       evaluate_modules=config.evaluate_modules)
+                                       evaluate_modules=config.evaluate_modules,
+                                       cppn_activation=config.cppn_activation, noise_draws=config.noise_draws,
+                                       aggregate=config.aggregate, quantile=config.quantile)
         self.rows: list[list] = []
         self.best_fitness = -np.inf
         self.first_solved: Optional[int] = None
@@ -165,8 +167,8 @@ class Trainer:
         t0 = time.perf_counter()
         cfg = self.config
         genomes = self.population.ask()
-        ev = self.evaluator.evaluate(genomes)
         gen = self.population.generation
+        ev = self.evaluator.evaluate(genomes, gen)
         order = np.argsort(-ev.fitness, kind="stable")
         best = int(order[0])
         solved_mask = ev.solved >= 1.0

@@ -9,5 +9,20 @@ Usage::
 
 from .activations import ACTIVATIONS, activation_code
 from .plan import MODE_PRODUCT, MODE_SUM, CppnPlan, compile_cppn
+from .relax import RelaxPlan, compile_relax
 
-__all__ = ["ACTIVATIONS", "activation_code", "CppnPlan", "compile_cppn", "MODE_SUM", "MODE_PRODUCT"]
+#: How a CPPN is activated for a substrate query: "recursive" (the original's depth-first pass, :mod:`.plan`) or
+#: "relax" (the original's commented-out MultipleSteps relaxation, :mod:`.relax`).
+CPPN_ACTIVATIONS = ("recursive", "relax")
+
+
+def compile_genome(genome, activation: str = "recursive", evaluate_modules: bool = False) -> "CppnPlan | RelaxPlan":
+    """The evaluation plan of `genome` under the chosen CPPN activation (relaxation always runs the modules)."""
+    if activation == "relax":
+        return compile_relax(genome)
+    if activation != "recursive":
+        raise ValueError(f"CPPN activation must be one of {CPPN_ACTIVATIONS}, got {activation!r}")
+    return compile_cppn(genome, evaluate_modules=evaluate_modules)
+
+__all__ = ["ACTIVATIONS", "activation_code", "CppnPlan", "compile_cppn", "MODE_SUM", "MODE_PRODUCT", "RelaxPlan",
+           "compile_relax", "CPPN_ACTIVATIONS", "compile_genome"]

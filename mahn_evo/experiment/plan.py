@@ -30,6 +30,13 @@ class ExperimentPlan:
     population: int = 500
     init: str = "iros2011"  # the trainer's defaults (see TrainConfig)
     evaluate_modules: bool = True
+    cppn_activation: str = "recursive"
+    #: robust evaluation (see TrainConfig): a task noise preset, episodes per team, their draws and aggregation
+    noise: str = "none"
+    episodes: int = 1
+    noise_draws: str = "fixed"
+    aggregate: str = "mean"
+    quantile: float = 0.25
     map: str = "plus"
     after_solved: int = 50  # generations kept after the first solution, for the generalisation test
     top: int = 5  # most general solutions (from distinct runs) per mode that get the transfer tests
@@ -70,8 +77,10 @@ class ExperimentPlan:
 
     def train_config(self, mode: str, seed: int) -> TrainConfig:
         base = TrainConfig(mode=mode, generations=self.generations, seed=seed, init=self.init, map=self.map,
-                           evaluate_modules=self.evaluate_modules, stop_when_solved=True,
-                           after_solved=self.after_solved)
+                           evaluate_modules=self.evaluate_modules, cppn_activation=self.cppn_activation,
+                           episodes=self.episodes, noise_draws=self.noise_draws, aggregate=self.aggregate,
+                           quantile=self.quantile, stop_when_solved=True,
+                           after_solved=self.after_solved).with_noise(self.noise)
         base = base.with_overrides(pop=self.population)
         if self.neat:
             base = TrainConfig.from_mapping({**base.to_dict(), "neat": {**base.neat.to_dict(), **self.neat,

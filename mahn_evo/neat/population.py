@@ -33,7 +33,7 @@ from .initial import initial_population
 from .innovation import InnovationTracker
 from .reproduction import elite_sizes, make_offspring, stagnation_adjusted_means, target_sizes, top_two_targets
 from .settings import NeatSettings, with_legacy_values
-from .speciation import RepresentativeIndex, Species, ThresholdController, first_compatible, speciate_all
+from .speciation import RepresentativeIndex, Species, ThresholdController, first_compatible, order_keys, speciate_all
 
 __all__ = ["Population", "GenerationStats"]
 
@@ -86,8 +86,10 @@ class Population:
         #: Species ids of each genome's parents (empty for the initial genomes), for re-speciation.
         self._parents: list[tuple[int, ...]] = [()] * len(self._genomes)
         self._threshold = ThresholdController(settings.initial_compatibility_threshold)
+        #: Salt of the "random" species order (drawn only in that mode, so other runs keep their random stream).
+        self._order_salt: int | None = int(rng.integers(0, 2**63)) if settings.species_order == "random" else None
         self._species, self._next_species_id = speciate_all(
-            self._genomes, self._threshold.threshold, settings, (), 0, 0
+            self._genomes, self._threshold.threshold, settings, (), 0, 0, order_salt=self._order_salt
         )
         self._ref_complexity = self._mean_complexity(self._genomes)
         self.best_genome: Genome | None = None
@@ -165,13 +167,19 @@ class Population:
             self.best_genome = genomes[best]
             self.last_improvement = gen
         champion = 0
+        flagged = False
         for k, sp in enumerate(self._species):
             top = float(f[sp.members[0]])
             if top > sp.best_fitness:
                 sp.best_fitness = top
                 sp.last_improvement = gen
+            elif s.stagnation_rule == "sticky" and gen - sp.last_improvement > s.stagnation_generations:
+                sp.culled = True
+                flagged = True
             if best in sp.members:
                 champion = k
+        if flagged:
+            self._pardon_champion(f, float(f[best]), gen)
         complexities = np.array([g.complexity for g in genomes])
         n_species = len(self._species)
 
@@ -209,7 +217,7 @@ class Population:
             new_genomes.extend(genomes[i] for i in sp.members[:e])
             new_born.extend(born[i] for i in sp.members[:e])
             new_parents.extend(self._parents[i] for i in sp.members[:e])
-            new_species.append(Species(sp.id, list(range(start, start + e)), sp.created, sp.best_fitness, sp.last_improvement))
+            new_species.append(sp.successor(list(range(start, start + e))))
         n_elite = len(new_genomes)
         new_genomes.extend(o.genome for o in offspring)
         new_born.extend([gen + 1] * len(offspring))
@@ -221,11 +229,14 @@ class Population:
         row_of: dict[int, int] = {}
         for sp in new_species:
             row_of[sp.id] = index.add(new_genomes[sp.members[0]])
+        salt = self._order_salt
+        keys = None if salt is None else list(order_keys([sp.id for sp in new_species], salt))
         thr = self._threshold.threshold
         for j, o in enumerate(offspring):
             i = n_elite + j
             d = index.distances(o.genome)
-            r = first_compatible(d, thr, [row_of.get(pid, -1) for pid in o.parent_species])
+            r = first_compatible(d, thr, [row_of.get(pid, -1) for pid in o.parent_species],
+                                 None if keys is None else np.asarray(keys, dtype=np.uint64))
             if r >= 0:
                 new_species[r].members.append(i)
             else:
@@ -233,6 +244,8 @@ class Population:
                 self._next_species_id += 1
                 row_of[sp.id] = index.add(o.genome)
                 new_species.append(sp)
+                if keys is not None:
+                    keys.append(order_keys([sp.id], salt)[0])
 
         # 6. threshold and full re-speciation
         changed = self._threshold.adjust(len(new_species), s)
@@ -241,7 +254,7 @@ class Population:
         if changed or drift:
             new_species, self._next_species_id = speciate_all(
                 new_genomes, self._threshold.threshold, s, new_species, gen + 1, self._next_species_id,
-                new_parents if s.respeciate_parents_first else (),
+                new_parents if s.respeciate_parents_first else (), order_salt=self._order_salt,
             )
             self._ref_complexity = cplx
 
@@ -263,6 +276,21 @@ class Population:
             respeciated=bool(changed or drift),
         )
 
+    def _pardon_champion(self, f: np.ndarray, best: float, gen: int) -> None:
+        """The original's pardon (stagnation_rule "sticky"): the population always keeps an unflagged champion
+        species.  A unique champion species is unflagged; if several champion species are all flagged, one drawn at
+        random is.  The pardoned species' improvement clock restarts, so it is not flagged again at once."""
+        champions = [sp for sp in self._species if float(f[sp.members[0]]) == best]
+        if len(champions) == 1:
+            pardoned = champions[0] if champions[0].culled else None
+        elif all(sp.culled for sp in champions):
+            pardoned = champions[int(self.rng.integers(len(champions)))]
+        else:
+            pardoned = None
+        if pardoned is not None:
+            pardoned.culled = False
+            pardoned.last_improvement = gen
+
     # ---------------------------------------------------------------------------------------------- state
     def to_dict(self) -> dict[str, Any]:
         """The complete state as plain JSON-able data (no pickle): resuming from it is bit-identical."""
@@ -283,6 +311,7 @@ class Population:
             "best_genome": None if self.best_genome is None else self.best_genome.to_dict(),
             "best_fitness": None if self.best_fitness == -math.inf else self.best_fitness,
             "last_improvement": self.last_improvement,
+            **({} if self._order_salt is None else {"species_order_salt": self._order_salt}),
         }
 
     @classmethod
@@ -332,6 +361,11 @@ class Population:
         bf = data.get("best_fitness")
         self.best_fitness = -math.inf if bf is None else float(bf)
         self.last_improvement = int(data.get("last_improvement", 0))  # absent in checkpoints of older versions
+        salt = data.get("species_order_salt")
+        if (salt is None) != (settings.species_order != "random") or not (salt is None or isinstance(salt, int)):
+            raise ValueError("Population.from_dict: 'species_order_salt' must be an integer exactly when "
+                             f"species_order is 'random' (species_order {settings.species_order!r}, salt {salt!r})")
+        self._order_salt = salt
         return self
 
 

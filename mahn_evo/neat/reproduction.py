@@ -188,10 +188,15 @@ def stagnation_adjusted_means(
     generation: int,
     settings: NeatSettings,
 ) -> np.ndarray:
-    """Mean fitness per species, times the stagnation penalty for stagnant non-champion species."""
+    """Mean fitness per species, times the stagnation penalty for stagnant species: with stagnation_rule
+    "recompute" every non-champion species now stagnant, with "sticky" every flagged one (see Population.tell)."""
     means = np.array([float(np.mean(fitness[sp.members])) for sp in species])
     for k, sp in enumerate(species):
-        if k != champion and generation - sp.last_improvement > settings.stagnation_generations:
+        if settings.stagnation_rule == "sticky":
+            stagnant = sp.culled
+        else:
+            stagnant = k != champion and generation - sp.last_improvement > settings.stagnation_generations
+        if stagnant:
             means[k] *= settings.stagnation_penalty
     if not np.any(means > 0):  # every species penalised to 0 cannot happen with a positive floor; guard anyway
         means = np.ones_like(means)

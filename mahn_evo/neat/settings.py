@@ -92,6 +92,12 @@ class NeatSettings:
     #: so far), then every species in order, as SharpNEAT 1.0's RedetermineSpeciation.  False: every species in
     #: order only (mahn 0.1's rule; runs saved without this setting used it, see LEGACY_VALUES).
     respeciate_parents_first: bool = True
+    #: Order in which a genome that fits none of its parents' species tries the other species (offspring placement
+    #: and full re-speciation).  "id": oldest species first (mahn's rule; it funnels genomes into old species).
+    #: "random": a seeded pseudo-random order that is stable per species id, as the original's, which iterates a
+    #: Hashtable keyed by species id (SharpNeatLib/Evolution/Population.cs, AddGenomeToSpeciesTable over
+    #: speciesTable.Values): bucket order, unrelated to age.
+    species_order: str = "id"
     initial_compatibility_threshold: float = 8.0
     #: Desired species count range; ``None`` means population_size/10 - 2 and population_size/10 (48..50 at 500).
     species_count_min: int | None = None
@@ -121,6 +127,13 @@ class NeatSettings:
     stagnation_generations: int = 200
     #: ... by multiplying its mean fitness (used for target sizes) by this factor.  The champion species is exempt.
     stagnation_penalty: float = 0.01
+    #: "recompute": a species is penalised in every generation in which it has gone more than
+    #: stagnation_generations without improving, and the champion species is always exempt (mahn's rule).
+    #: "sticky": the original's rule (SharpNeatLib/Evolution/EvolutionAlgorithm.cs, UpdateSpeciesStats): once
+    #: flagged a species stays penalised for good, even if it improves later; a unique champion species that gets
+    #: flagged is pardoned and its improvement clock restarts (another stagnation_generations); when several
+    #: champion species are all flagged, one drawn at random is pardoned.
+    stagnation_rule: str = "recompute"
 
     # --- fitness and initialisation ----------------------------------------------------------------------------
     #: Fitness values are raised to at least this floor (the original's max(F, 1e-7)); roulettes need them > 0.
@@ -210,6 +223,10 @@ class NeatSettings:
         _check(isinstance(self.respeciate_parents_first, bool), "respeciate_parents_first", "must be a bool")
         _check(self.tie_break in TIE_BREAKS, "tie_break", f"must be one of {TIE_BREAKS}, got {self.tie_break!r}")
         _check(isinstance(self.weight_difference_mean, bool), "weight_difference_mean", "must be a bool")
+        _check(self.species_order in SPECIES_ORDERS, "species_order",
+               f"must be one of {SPECIES_ORDERS}, got {self.species_order!r}")
+        _check(self.stagnation_rule in STAGNATION_RULES, "stagnation_rule",
+               f"must be one of {STAGNATION_RULES}, got {self.stagnation_rule!r}")
         _check(
             isinstance(self.hidden_activations, tuple)
             and len(self.hidden_activations) > 0
@@ -289,6 +306,8 @@ class NeatSettings:
 
 
 TIE_BREAKS = ("youngest", "oldest")
+SPECIES_ORDERS = ("id", "random")
+STAGNATION_RULES = ("recompute", "sticky")
 
 #: Settings whose default changed after runs were saved: a saved mapping (checkpoint, config.json,
 #: experiment.json) without the key was run with this value, so it resumes unchanged.  Unlike LATER_FIELDS, these
@@ -303,7 +322,8 @@ def with_legacy_values(saved: Mapping[str, Any]) -> dict[str, Any]:
 
 #: Settings added after checkpoints of the original-system runs were written; see :meth:`NeatSettings.to_dict`.
 LATER_FIELDS = frozenset(
-    {"crossover_mutation_probability", "population_stagnation_generations", "weight_difference_mean"}
+    {"crossover_mutation_probability", "population_stagnation_generations", "weight_difference_mean",
+     "species_order", "stagnation_rule"}
 )
 
 

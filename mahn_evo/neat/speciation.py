@@ -7,8 +7,9 @@ Rules (original system, section 8):
   compatible with a species if distance < threshold;
 - a species' representative is its current first member (after trimming: its best elite; during a full
   re-speciation: the first genome placed in it);
-- an offspring tries its parent species 1, then parent species 2, then every other species in order, and founds a
-  new species if none is compatible;
+- an offspring tries its parent species 1, then parent species 2, then every other species in order (by id, or with
+  ``species_order = "random"`` in a seeded pseudo-random order fixed per species id, see :func:`order_keys`), and
+  founds a new species if none is compatible;
 - the threshold steers the species count into a target range; any adjustment, or a change of mean complexity by
   more than 5 % since the last one, triggers a full re-speciation.
 
@@ -38,6 +39,7 @@ __all__ = [
     "RepresentativeIndex",
     "ThresholdController",
     "speciate_all",
+    "order_keys",
 ]
 
 
@@ -68,15 +70,23 @@ class Species:
     created: int  # generation the species was founded
     best_fitness: float = -math.inf  # best fitness ever seen in the species
     last_improvement: int = 0  # generation of the last improvement of best_fitness
+    culled: bool = False  # flagged as stagnant for good (stagnation_rule "sticky" only)
 
     def to_dict(self) -> dict[str, Any]:
-        return {
+        d: dict[str, Any] = {
             "id": self.id,
             "members": list(self.members),
             "created": self.created,
             "best_fitness": None if self.best_fitness == -math.inf else self.best_fitness,
             "last_improvement": self.last_improvement,
         }
+        if self.culled:  # only the sticky stagnation rule sets it; files of the other rule stay as they were
+            d["culled"] = True
+        return d
+
+    def successor(self, members: list[int]) -> "Species":
+        """The same species (identity and history) with new members."""
+        return Species(self.id, members, self.created, self.best_fitness, self.last_improvement, self.culled)
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> "Species":
@@ -87,6 +97,7 @@ class Species:
             int(d["created"]),
             -math.inf if bf is None else float(bf),
             int(d["last_improvement"]),
+            bool(d.get("culled", False)),
         )
 
 
@@ -158,13 +169,37 @@ class RepresentativeIndex:
         return s.disjoint_coefficient * (nonmatch - excess) + s.excess_coefficient * excess + s.weight_coefficient * wsum
 
 
-def first_compatible(d: np.ndarray, threshold: float, preferred: Sequence[int]) -> int:
-    """Row to join: the first compatible preferred row, else the first compatible row in order, else -1."""
+_MIX1 = np.uint64(0xBF58476D1CE4E5B9)
+_MIX2 = np.uint64(0x94D049BB133111EB)
+_GOLDEN = np.uint64(0x9E3779B97F4A7C15)
+
+
+def order_keys(species_ids: Sequence[int] | np.ndarray, salt: int) -> np.ndarray:
+    """Pseudo-random, seeded sort keys of species ids (splitmix64 of id + salt): the ``"random"`` species order.
+
+    Why keyed by id rather than a fresh shuffle: the original iterates a Hashtable keyed by species id, whose order
+    is unrelated to age but stays the same for the same species from one generation to the next.
+    """
+    with np.errstate(over="ignore"):
+        z = np.asarray(species_ids, dtype=np.uint64) * _GOLDEN + np.uint64(salt % 2**64)
+        z = (z ^ (z >> np.uint64(30))) * _MIX1
+        z = (z ^ (z >> np.uint64(27))) * _MIX2
+        return z ^ (z >> np.uint64(31))
+
+
+def first_compatible(d: np.ndarray, threshold: float, preferred: Sequence[int],
+                     keys: np.ndarray | None = None) -> int:
+    """Row to join: the first compatible preferred row, else the first compatible row in order (rows in order,
+    or by ascending ``keys[row]`` when given), else -1."""
     for r in preferred:
         if r >= 0 and d[r] < threshold:
             return r
     ok = np.flatnonzero(d < threshold)
-    return int(ok[0]) if ok.size else -1
+    if not ok.size:
+        return -1
+    if keys is None:
+        return int(ok[0])
+    return int(ok[np.argmin(keys[ok])])
 
 
 def speciate_all(
@@ -175,12 +210,14 @@ def speciate_all(
     generation: int,
     next_species_id: int,
     parents: Sequence[Sequence[int]] = (),
+    order_salt: int | None = None,
 ) -> tuple[list[Species], int]:
     """Full re-speciation of ``genomes`` in list order; returns (species ordered by id, next free species id).
 
     A new species inherits the identity of the old species its founder belonged to (first claim wins); otherwise
     it gets a fresh id.  With ``parents`` (per genome, the species ids of its parents), a genome first tries those
-    of its parents' species that have been formed so far, then every species in order.
+    of its parents' species that have been formed so far, then every species in order (by id, or by
+    :func:`order_keys` with ``order_salt``).
     """
     owner: dict[int, Species] = {}
     for sp in old_species:
@@ -190,21 +227,25 @@ def speciate_all(
     index = RepresentativeIndex(genomes, settings)
     species: list[Species] = []
     row_of: dict[int, int] = {}  # species id -> row
+    keys: list[int] = []
     for i, g in enumerate(genomes):
         preferred = [row_of.get(pid, -1) for pid in parents[i]] if parents else ()
-        r = first_compatible(index.distances(g), threshold, preferred)
+        r = first_compatible(index.distances(g), threshold, preferred,
+                             None if order_salt is None else np.asarray(keys, dtype=np.uint64))
         if r >= 0:
             species[r].members.append(i)
             continue
         old = owner.get(i)
         if old is not None and old.id not in claimed:
             claimed.add(old.id)
-            sp = Species(old.id, [i], old.created, old.best_fitness, old.last_improvement)
+            sp = old.successor([i])
         else:
             sp = Species(next_species_id, [i], generation, -math.inf, generation)
             next_species_id += 1
         row_of[sp.id] = len(species)
         species.append(sp)
+        if order_salt is not None:
+            keys.append(int(order_keys([sp.id], order_salt)[0]))
         index.add(g)
     species.sort(key=lambda s: s.id)
     return species, next_species_id

@@ -1,0 +1,170 @@
+"""The original's other CPPN activation: synchronous relaxation, ``MultipleSteps(2 * hidden + 1)``.
+
+The IROS 2011 code decodes the substrate with a depth-first recursive pass (:mod:`.plan`), in which recurrent CPPN
+links add 0 and Multiply modules are never evaluated.  Its substrate code still carries the older path as a
+comment, ``network.MultipleSteps(iterations)`` with ``iterations = 2 * (TotalNeuronCount - (InputNeuronCount +
+OutputNeuronCount)) + 1`` (SharpNeatLib/CPPNs/SubstrateDescription.cs; the activation itself is
+SharpNeatLib/NeuralNetwork/ModularNetwork/ModularNetwork.cs, SingleStepInternal).  The paper's runs may have used
+it.  One step, for every query, after clearing every signal but the bias (1) and writing the inputs:
+
+1. every connection, in genome connection order, adds ``signal[src] * w`` to its target's new sum (from 0);
+2. every non-input node takes ``f(sum)`` (the per-node bias field is 0 in these genomes);
+3. every module, in module order, writes the product of its input nodes' new values to its output node;
+4. the new values replace the old ones.
+
+So Multiply modules are live and a recurrent CPPN link feeds the previous step's value.  On an acyclic CPPN the
+values stop changing after (depth + 1) steps, and then equal the recursive pass with ``evaluate_modules``; we stop
+as soon as one step changes nothing (exact: a step is a deterministic function of the signals), which keeps the
+cost near the recursive pass except for CPPNs whose cycles keep the signals moving.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numba
+import numpy as np
+
+from .activations import activation_code
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ..neat.genome import Genome
+
+__all__ = ["RelaxPlan", "compile_relax", "relax_steps"]
+
+_F = np.float32
+
+
+@numba.njit(cache=True, inline="always")
+def _activate(code: int, x: np.float32) -> np.float32:
+    """The activation functions of :mod:`.activations`, on one float32 (same codes, same float32 formulas)."""
+    if code == 0:  # bipolar sigmoid
+        return _F(2.0) / (_F(1.0) + np.float32(math.exp(_F(-4.9) * x))) - _F(1.0)
+    if code == 1:  # gaussian
+        y = _F(2.5) * x
+        return _F(2.0) * np.float32(math.exp(-(y * y))) - _F(1.0)
+    if code == 2:
+        return abs(x)
+    if code == 3:
+        return np.float32(math.sin(_F(2.0) * x))
+    if code == 4:  # error sign
+        if x >= _F(0.0001):
+            return _F(1.0)
+        if x <= _F(-0.0001):
+            return _F(-1.0)
+        return _F(0.0)
+    if code == 5:
+        return x
+    if code == 7:  # sigmoid
+        return _F(1.0) / (_F(1.0) + np.float32(math.exp(_F(-4.9) * x)))
+    return _F(0.0)  # zero / null: a module output before its module writes it
+
+
+@numba.njit(cache=True)
+def _relax(queries, n_in, act, csrc, cdst, cw, mod_ptr, mod_in, mod_out, out_idx, steps):  # pragma: no cover
+    n_q = queries.shape[0]
+    n = act.shape[0]
+    out = np.empty((n_q, out_idx.shape[0]), dtype=np.float32)
+    sig = np.empty(n, dtype=np.float32)
+    new = np.empty(n, dtype=np.float32)
+    first = n_in + 1
+    for q in range(n_q):
+        for i in range(n):
+            sig[i] = 0.0
+        sig[0] = 1.0
+        for j in range(n_in):
+            sig[1 + j] = queries[q, j]
+        for _ in range(steps):
+            for i in range(first, n):
+                new[i] = 0.0
+            for c in range(csrc.shape[0]):
+                new[cdst[c]] += sig[csrc[c]] * cw[c]
+            for i in range(first, n):
+                new[i] = _activate(act[i], new[i])
+            for m in range(mod_ptr.shape[0] - 1):
+                prod = np.float32(1.0)
+                for t in range(mod_ptr[m], mod_ptr[m + 1]):
+                    prod *= new[mod_in[t]]
+                new[mod_out[m]] = prod
+            same = True
+            for i in range(first, n):
+                if new[i] != sig[i]:
+                    same = False
+                sig[i] = new[i]
+            if same:
+                break
+        for o in range(out_idx.shape[0]):
+            out[q, o] = sig[out_idx[o]]
+    return out
+
+
+def relax_steps(n_nodes: int, n_inputs: int, n_outputs: int) -> int:
+    """The original's step count: 2 * (all neurons, the bias included, minus inputs and outputs) + 1."""
+    return 2 * (n_nodes - (n_inputs + n_outputs)) + 1
+
+
+@dataclass(frozen=True)
+class RelaxPlan:
+    """A genome flattened for :func:`_relax`: node 0 the bias, 1..n_inputs the inputs, then the other nodes."""
+
+    n_inputs: int
+    act: np.ndarray  # activation code per node
+    src: np.ndarray  # connection source node index, genome connection order
+    dst: np.ndarray
+    weight: np.ndarray  # float32
+    mod_ptr: np.ndarray  # module k reads mod_in[mod_ptr[k]:mod_ptr[k+1]] ...
+    mod_in: np.ndarray
+    mod_out: np.ndarray  # ... and writes node mod_out[k]
+    output_idx: np.ndarray
+    steps: int
+
+    @property
+    def n_outputs(self) -> int:
+        return int(self.output_idx.size)
+
+    def evaluate(self, inputs: np.ndarray, dtype: type = np.float32) -> np.ndarray:
+        """Outputs (Q, n_outputs) for inputs (Q, n_inputs), as :meth:`CppnPlan.evaluate` (float32 only)."""
+        if dtype is not np.float32:
+            raise ValueError("the relaxation activation runs in float32 only, as the original")
+        x = np.ascontiguousarray(inputs, dtype=np.float32)
+        if x.ndim == 1:
+            x = x[None, :]
+        if x.ndim != 2 or x.shape[1] != self.n_inputs:
+            raise ValueError(f"RelaxPlan.evaluate: expected inputs of shape (Q, {self.n_inputs}), got {x.shape}")
+        return _relax(x, self.n_inputs, self.act, self.src, self.dst, self.weight, self.mod_ptr, self.mod_in,
+                      self.mod_out, self.output_idx, self.steps)
+
+
+def compile_relax(genome: "Genome") -> RelaxPlan:
+    """Index a genome's nodes (bias, inputs in id order, then the rest in genome order) for :func:`_relax`."""
+    bias = [n.id for n in genome.nodes if n.kind == "bias"]
+    if len(bias) != 1:
+        raise ValueError(f"compile_relax: a CPPN genome has exactly one bias node, got {len(bias)}")
+    inputs = list(genome.input_ids)
+    rest = [n for n in genome.nodes if n.kind not in ("bias", "input")]
+    order = bias + inputs + [n.id for n in rest]
+    index = {nid: k for k, nid in enumerate(order)}
+    act = np.zeros(len(order), dtype=np.int64)
+    for n in rest:
+        act[index[n.id]] = activation_code("zero" if n.kind == "module_out" else n.activation)
+    mod_ptr, mod_in, mod_out = [0], [], []
+    for m in genome.modules:
+        if m.function != "multiply" or len(m.outputs) != 1:
+            raise ValueError(f"compile_relax: only one-output Multiply modules are known, got {m}")
+        mod_in.extend(index[i] for i in m.inputs)
+        mod_ptr.append(len(mod_in))
+        mod_out.append(index[m.outputs[0]])
+    outputs = list(genome.output_ids)
+    return RelaxPlan(
+        n_inputs=len(inputs),
+        act=act,
+        src=np.array([index[s] for s in genome.src.tolist()], dtype=np.int64),
+        dst=np.array([index[d] for d in genome.dst.tolist()], dtype=np.int64),
+        weight=np.asarray(genome.weight, dtype=np.float32),
+        mod_ptr=np.asarray(mod_ptr, dtype=np.int64),
+        mod_in=np.asarray(mod_in, dtype=np.int64),
+        mod_out=np.asarray(mod_out, dtype=np.int64),
+        output_idx=np.array([index[o] for o in outputs], dtype=np.int64),
+        steps=relax_steps(len(order), len(inputs), len(outputs)),
+    )
