@@ -128,6 +128,13 @@ def test_malformed_champions_name_the_problem(tmp_path, champion_file, edit, mat
         Champion.load(_write(tmp_path, data))
 
 
+@pytest.mark.parametrize("decoding", [dict(cppn_activation="relax"), dict(evaluate_modules=False, init="iros2011"),
+                                      dict(evaluate_modules=True, init="iros2011")])
+def test_champions_of_every_decoding_load(tmp_path, decoding):
+    train(small(generations=2, **decoding), tmp_path)
+    Champion.load(tmp_path / "champion.json")
+
+
 def test_controllers_of_another_cppn_are_refused(tmp_path, champion_file):
     other = tmp_path / "other"
     train(small(generations=2, seed=11), other)
