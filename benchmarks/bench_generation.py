@@ -17,6 +17,7 @@ import numpy as np
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
 
+from mahn_envs.core import TaskParams  # noqa: E402
 from mahn_evo.config import TrainConfig  # noqa: E402
 from mahn_evo.trainer import Trainer  # noqa: E402
 
@@ -50,7 +51,7 @@ def main() -> None:
             total.append(t4 - t0)
     mean = {k: float(np.mean(v)) for k, v in parts.items()}
     tot = float(np.mean(total))
-    steps = args.pop * 3 * 1364
+    steps = args.pop * 3 * TaskParams().max_cycles
     print(f"population {args.pop}, {args.mode}, {args.generations} generations, {os.cpu_count()} cores")
     print(f"seconds per generation: {tot:.3f}   (target <= 0.5; original C# ~12 s)")
     for k, v in mean.items():

@@ -41,8 +41,9 @@ SharpNEAT 1.0's tie rule (youngest first) and parent-first re-speciation, the de
 sharpneat 87 %, 21,421, 21,750; neat2002 93 %, 18,161, 16,125; neat-python 97 %, 8,534, 8,100; published 100 %,
 ~4,755.  With mahn 0.1's rules (``tie_break="oldest"``, ``respeciate_parents_first=False``): sharpneat 97 %,
 20,467; neat2002 97 %, 16,267.  One rule at a time (sharpneat, same 30 seeds): youngest first alone 27/30 solved,
--5 % evaluations; parent-first alone 27/30, +21 %.  Differences of two or three seeds in 30 are within chance.  The remaining gap to the paper is in the weight-mutation operator and the
-disable-vs-remove split link, which the original system's mechanisms (which drive the patrol runs) do not have.
+-5 % evaluations; parent-first alone 27/30, +21 %.  Differences of two or three seeds in 30 are within chance.
+The remaining gap to the paper is in the weight-mutation operator and the disable-vs-remove split link, which
+the original system's mechanisms (which drive the patrol runs) do not have.
 
 Reference figures: Stanley & Miikkulainen (2002), population 150: 100 of 100 runs solved, 32 generations and about
 4,755 evaluations on average.  If ``import neat`` works (``pip install neat-python`` locally; it is not a project

@@ -1,5 +1,10 @@
-"""Draw the built-in maps (docs/maps.png): walls, home, POIs, start poses, and the asymmetric plus's numbers."""
+"""Draw the built-in maps: walls, home, POIs, start poses, and the asymmetric plus's numbers.
+
+    python examples/plot_maps.py                  # writes runs/examples/maps.png
+    python examples/plot_maps.py docs/maps.png    # regenerates the README's figure
+"""
 import sys
+from pathlib import Path
 
 import matplotlib
 
@@ -10,12 +15,13 @@ import numpy as np  # noqa: E402
 from mahn_envs import load_map  # noqa: E402
 from mahn_evo.plots import draw_world  # noqa: E402
 
-out = sys.argv[1] if len(sys.argv) > 1 else "docs/maps.png"
+out = Path(sys.argv[1] if len(sys.argv) > 1 else "runs/examples/maps.png")
+out.parent.mkdir(parents=True, exist_ok=True)
 fig, axes = plt.subplots(1, 2, figsize=(10, 5.6), dpi=110)
 for ax, name in zip(axes, ["plus", "asymmetric_plus"]):
     w = load_map(name)
     draw_world(ax, w)
-    for k, (x, y, h) in enumerate(w.starts):
+    for x, y, h in w.starts:
         ax.plot(x, y, "o", color="C0", ms=5)
         ax.arrow(x, y, 6 * np.cos(h), 6 * np.sin(h), head_width=2, color="C0")
     ax.set_title(f"{name} (cm, y up)")

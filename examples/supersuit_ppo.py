@@ -15,12 +15,14 @@ from __future__ import annotations
 
 import argparse
 
+from mahn_envs.core.params import ORIGINAL_MAX_TICKS
+
 
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--steps", type=int, default=20_000, help="robot-steps to train")
     ap.add_argument("--envs", type=int, default=4, help="PettingZoo envs (episodes) in parallel")
-    ap.add_argument("--max-cycles", type=int, default=1364)
+    ap.add_argument("--max-cycles", type=int, default=ORIGINAL_MAX_TICKS, help="episode length in ticks")
     args = ap.parse_args()
 
     import supersuit as ss

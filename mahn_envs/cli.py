@@ -11,7 +11,7 @@ import signal
 import sys
 import threading
 import time
-from typing import Optional, Sequence
+from collections.abc import Sequence
 
 
 def _firmware(text: str) -> tuple[int, int]:
@@ -45,6 +45,9 @@ def add_emulate_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--see-robots", action="store_true", help="IR rays see the other robots")
     p.add_argument("--watchdog", type=float, default=None,
                    help="robot-side safety: stop a robot's motors after this many seconds without a command")
+    p.add_argument("--idle-timeout", type=float, default=60.0,
+                   help="disconnect a client that sends nothing for this many seconds, freeing the robot's port "
+                        "for the next one (default 60; 0 = never)")
     p.add_argument("--fault", action="append", default=[], metavar="ROBOT:KIND[:COUNT[:LETTERS[:DELAY]]]",
                    help="inject a fault: KIND drop|garbage|delay|disconnect, COUNT a number or 'forever', "
                         "LETTERS the commands it applies to (e.g. N), DELAY seconds; repeatable")
@@ -56,6 +59,7 @@ def add_emulate_parser(subparsers) -> argparse.ArgumentParser:
 
 def run_emulate(args: argparse.Namespace) -> int:
     from .hardware import KheperaEmulator, parse_fault
+    from .hardware.emulator import LOOPBACK
     from .hardware.clock import RealClock
     from .hardware.kinematics import speed_unit_for_version
 
@@ -67,14 +71,27 @@ def run_emulate(args: argparse.Namespace) -> int:
     except ValueError as exc:
         print(f"mahn-envs emulate: {exc}", file=sys.stderr)
         return 2
-    speed_unit = args.speed_unit if args.speed_unit is not None else speed_unit_for_version(*args.firmware)
-    emu = KheperaEmulator(args.robots, host=args.host, port=args.port, allow_remote=args.allow_remote,
-                          map=args.map, clock=RealClock(args.time_scale), seed=args.seed, noise=args.noise,
-                          firmware=args.firmware, speed_unit=speed_unit, wheel_base=args.wheel_base,
-                          calibration=args.calibration, robots_see_each_other=args.see_robots,
-                          watchdog=args.watchdog)
-    for f in faults:
-        emu.add_fault(f)
+    if args.host not in LOOPBACK and not args.allow_remote:
+        print(f"mahn-envs emulate: --host {args.host} is not a loopback address; the emulator answers anyone who "
+              "connects, so it binds 127.0.0.1 only unless you add --allow-remote", file=sys.stderr)
+        return 2
+    try:
+        speed_unit = args.speed_unit if args.speed_unit is not None else speed_unit_for_version(*args.firmware)
+        emu = KheperaEmulator(args.robots, host=args.host, port=args.port, allow_remote=args.allow_remote,
+                              map=args.map, clock=RealClock(args.time_scale), seed=args.seed, noise=args.noise,
+                              firmware=args.firmware, speed_unit=speed_unit, wheel_base=args.wheel_base,
+                              calibration=args.calibration, robots_see_each_other=args.see_robots,
+                              watchdog=args.watchdog, idle_timeout=args.idle_timeout or None)
+        for f in faults:
+            emu.add_fault(f)
+    except ValueError as exc:
+        print(f"mahn-envs emulate: {exc}", file=sys.stderr)
+        return 2
+    try:
+        emu.start()
+    except OSError as exc:
+        print(f"mahn-envs emulate: cannot listen on {args.host} port {args.port}: {exc}", file=sys.stderr)
+        return 2
     done = threading.Event()
 
     def _on_term(signum, frame):  # SIGTERM: shut down like Ctrl-C
@@ -83,7 +100,6 @@ def run_emulate(args: argparse.Namespace) -> int:
     previous = None
     if threading.current_thread() is threading.main_thread():
         previous = signal.signal(signal.SIGTERM, _on_term)
-    emu.start()
     try:
         for k, url in enumerate(emu.ports):
             print(f"robot_{k}: {url}")
@@ -121,7 +137,7 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def main(argv: Optional[Sequence[str]] = None) -> int:
+def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     return args.func(args)
 

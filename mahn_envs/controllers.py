@@ -5,8 +5,9 @@ Files are JSON (human-readable, versioned) so a champion can be inspected, diffe
 """
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any, Mapping
+from typing import Any
 
 import numpy as np
 
@@ -68,19 +69,19 @@ class TeamControllers:
     def mode(self) -> str:
         return "situational" if self.n_brains == 2 else "standard"
 
-    def as_batch(self) -> "TeamControllers":
+    def as_batch(self) -> TeamControllers:
         """A batch of one team (no copy when already batched)."""
         if self.batched:
             return self
         return TeamControllers(*(getattr(self, f)[None] for f in _FIELDS))
 
-    def team(self, index: int) -> "TeamControllers":
+    def team(self, index: int) -> TeamControllers:
         if not self.batched:
             raise ValueError("team(index) needs a batch of teams")
         return TeamControllers(*(getattr(self, f)[index] for f in _FIELDS))
 
     @staticmethod
-    def stack(teams: "list[TeamControllers]") -> "TeamControllers":
+    def stack(teams: list[TeamControllers]) -> TeamControllers:
         return TeamControllers(*(np.stack([getattr(t, f) for t in teams]) for f in _FIELDS))
 
     def to_dict(self) -> dict[str, Any]:
@@ -92,7 +93,7 @@ class TeamControllers:
                 **{f: getattr(self, f).astype(np.float64).tolist() for f in _FIELDS}}
 
     @classmethod
-    def from_dict(cls, data: Mapping[str, Any]) -> "TeamControllers":
+    def from_dict(cls, data: Mapping[str, Any]) -> TeamControllers:
         missing = [f for f in _FIELDS if f not in data]
         if missing:
             raise ValueError(f"controllers: missing field(s) {missing}")

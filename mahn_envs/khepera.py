@@ -1,6 +1,6 @@
 """The simulated Khepera III: one definition shared by every engine, the env and the trainer.
 
-Every number here reproduces the original IROS 2011 simulator (see ``shared/reference``), expressed in our
+Every number here reproduces the original IROS 2011 simulator (docs/original-system.md), expressed in our
 frame (centimetres, seconds, radians, y up, heading counter-clockwise, positive relative angle = left).
 Keeping them in one frozen record means the batch core, the pymunk engine, the renderer and the hardware
 emulator cannot drift apart.
@@ -8,6 +8,7 @@ emulator cannot drift apart.
 from __future__ import annotations
 
 from dataclasses import dataclass, field, fields, replace
+from typing import Any
 
 import numpy as np
 
@@ -58,7 +59,7 @@ class KheperaModel:
         """Heading change of one turning tick, rounded to float32 as in the original."""
         return float(np.float32(np.float32(self.dt) * np.float32(self.turn_rate)))
 
-    def with_(self, **changes: float) -> "KheperaModel":
+    def with_(self, **changes: Any) -> KheperaModel:
         return replace(self, **changes)
 
 

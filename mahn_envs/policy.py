@@ -5,7 +5,7 @@ function as the batch core, so a team behaves identically in every place it runs
 """
 from __future__ import annotations
 
-from typing import Mapping, Sequence
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 

@@ -7,7 +7,7 @@ check of the task's rules and scoring (the original reaches ~163.9), not a learn
 from __future__ import annotations
 
 import math
-from typing import Mapping, Optional, Sequence
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 
@@ -16,7 +16,7 @@ from .maps import World
 LEFT, FORWARD, RIGHT = 0, 1, 2
 
 
-def corridor_route(world: World, poi: int, trunk_x: Optional[float] = None) -> list[tuple[float, float]]:
+def corridor_route(world: World, poi: int, trunk_x: float | None = None) -> list[tuple[float, float]]:
     """Waypoints from the start column to a POI for maps whose arms branch off a vertical trunk.
 
     Up the trunk (x = the start column's x) to the height of the POI, then straight to the POI.
@@ -37,7 +37,7 @@ class WaypointTeam:
 
     uses_infos = True
 
-    def __init__(self, world: World, agents: Sequence[str], assignment: Optional[Sequence[int]] = None,
+    def __init__(self, world: World, agents: Sequence[str], assignment: Sequence[int] | None = None,
                  tolerance: float = 2.0) -> None:
         n = len(agents)
         self.world = world
@@ -83,7 +83,7 @@ class WaypointTeam:
         return actions
 
 
-def run_scripted_episode(env, seed: int = 0, assignment: Optional[Sequence[int]] = None,
+def run_scripted_episode(env, seed: int = 0, assignment: Sequence[int] | None = None,
                          freeze_after_signal: bool = False) -> tuple[float, bool, np.ndarray]:
     """Play one episode of the waypoint team in a PatrolReturnEnv; returns (fitness, solved, poses (T+1,R,3))."""
     obs, infos = env.reset(seed=seed)

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Optional
+from typing import Any
 
 import numpy as np
 
@@ -30,7 +30,7 @@ class Champion:
     generation: int
     genome: Genome
     controllers: TeamControllers
-    seed: Optional[int] = None
+    seed: int | None = None
     map: str = "plus"
 
     def to_dict(self) -> dict[str, Any]:
@@ -39,11 +39,11 @@ class Champion:
             "seed": self.seed, "map": self.map, "cppn": self.genome.to_dict(),
             "controllers": self.controllers.to_dict()})
 
-    def save(self, path: "str | Path") -> None:
+    def save(self, path: str | Path) -> None:
         atomic_write_json(path, self.to_dict())
 
     @classmethod
-    def load(cls, path: "str | Path") -> "Champion":
+    def load(cls, path: str | Path) -> Champion:
         """Read a champion file; a field that is missing, of the wrong type, an unknown mode, or controllers that
         are not what the file's CPPN decodes to are a ValueError naming the file."""
         data = read_versioned_json(path, KIND)

@@ -63,17 +63,30 @@ def _train_parser(sub) -> None:
 
 def _eval_parser(sub) -> None:
     p = sub.add_parser("eval", help="score a saved champion on any map and engine")
-    p.add_argument("champion", type=Path)
-    p.add_argument("--map", default="plus")
-    p.add_argument("--engine", default="kinematic", choices=["kinematic", "pymunk"])
-    p.add_argument("--episodes", type=int, default=1)
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("champion", type=Path, help="a champion.json (a run's best team, or one from its archive/)")
+    p.add_argument("--map", default="plus",
+                   help="plus (the training map, default), asymmetric_plus (the paper's test map) or the path of "
+                        "a map JSON file")
+    p.add_argument("--engine", default="kinematic", choices=["kinematic", "pymunk"],
+                   help="kinematic: the compiled simulator the team was trained in (default); pymunk: contact "
+                        "physics, for robots that bump into each other")
+    p.add_argument("--episodes", type=int, default=1,
+                   help="episodes to average (default 1; without noise every episode is the same, so more than one "
+                        "only matters with --noise or a noise level)")
+    p.add_argument("--seed", type=int, default=0,
+                   help="seed of the noise and start perturbations (default 0); same seed, same scores")
     p.add_argument("--noise", default="none", help="noise preset: none or generalization")
-    for name in ("sensor-noise", "effector-noise", "heading-noise", "start-jitter-xy", "start-jitter-heading"):
-        p.add_argument(f"--{name}", type=float, help="override one noise level (see TaskParams)")
+    for name, what in (("sensor-noise", "percent: each IR input gets +- this/100, uniform"),
+                       ("effector-noise", "percent: speed and turn rate scaled by 1 +- this/100 each tick"),
+                       ("heading-noise", "radians: largest heading perturbation per tick"),
+                       ("start-jitter-xy", "cm: largest shift of a start position (uniform in a square)"),
+                       ("start-jitter-heading", "radians: largest change of a start heading")):
+        p.add_argument(f"--{name}", type=float, help=f"override one noise level of the preset, in {what}")
     p.add_argument("--protocol", default="training", choices=["training", "sequential"],
                    help="training: all robots called at tick 690 (team fitness); sequential: the paper's "
-                        "real-world protocol, robots called one at a time, robots see and bump each other")
+                        "real-world protocol, robots called one at a time, robots see and bump each other; "
+                        "it reports stages: 3 per robot (reached its own post, came home when called, went "
+                        "back out to its post), 9 for a team of three")
     p.add_argument("--video", type=Path, help="write a GIF of the (first) episode")
     p.add_argument("--plot", type=Path, help="write a PNG of the trajectories of the (first) episode")
     p.add_argument("--margins", action="store_true",
@@ -85,12 +98,19 @@ def _eval_parser(sub) -> None:
 
 def _generalize_parser(sub) -> None:
     p = sub.add_parser("generalize", help="rank a run's archived solutions under noise (the paper's test)")
-    p.add_argument("run_dir", type=Path)
-    p.add_argument("--episodes", type=int, default=25)
-    p.add_argument("--map", default="plus")
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--noise", default="generalization", help="noise preset (default generalization)")
-    p.add_argument("--json", action="store_true")
+    p.add_argument("run_dir", type=Path,
+                   help="a run folder of `mahn-evo train`; its archive/ solutions (or champion.json) are ranked, "
+                        "and the ranking is written there as generalization.json and .csv")
+    p.add_argument("--episodes", type=int, default=25,
+                   help="noisy episodes per solution (default 25, as the paper); every solution gets the same "
+                        "noise, so the ranking compares teams, not luck")
+    p.add_argument("--map", default="plus",
+                   help="map to test on: plus (default), asymmetric_plus or the path of a map JSON file")
+    p.add_argument("--seed", type=int, default=0, help="seed of the noise (default 0); same seed, same ranking")
+    p.add_argument("--noise", default="generalization",
+                   help="noise preset: generalization (default: sensor, turning and motion noise, start "
+                        "jitter) or none")
+    p.add_argument("--json", action="store_true", help="print the ranking as JSON instead of a table")
 
 
 def _experiment_parser(sub) -> None:
@@ -99,7 +119,8 @@ def _experiment_parser(sub) -> None:
 
     d = ExperimentPlan()
     p = sub.add_parser("experiment", help="the paper's table: seeded runs per mode, generalisation, transfer, figures")
-    p.add_argument("--modes", nargs="+", default=list(d.modes), choices=MODES)
+    p.add_argument("--modes", nargs="+", default=list(d.modes), choices=MODES,
+                   help="policy geometries to compare (default: %(default)s)")
     p.add_argument("--runs", type=int, default=d.runs, help=f"runs per mode (default {d.runs}, as the paper)")
     p.add_argument("--seed", type=int, default=d.seed, help="run i of each mode uses seed+i (default %(default)s)")
     p.add_argument("--generations", type=int, default=d.generations, help="at most (default %(default)s)")
@@ -301,7 +322,7 @@ def cmd_eval(args) -> int:
         from mahn_envs.policy import ControllerPolicy
 
         from .champion import Champion
-        from .protocols import sequential
+        from .protocols import sequential, sequential_summary
 
         champ = Champion.load(args.champion)
         policy = ControllerPolicy(champ.controllers, [f"robot_{k}" for k in range(champ.controllers.n_robots)])
@@ -326,7 +347,7 @@ def cmd_eval(args) -> int:
         if args.json:
             print(json.dumps(result, indent=1))
         else:
-            print(f"sequential protocol on {args.map}: success {result['solved']}  stages {result['fitness']}")
+            print(sequential_summary(result, args.map))
         return 0
     result = evaluate_champion(args.champion, map=args.map, engine=args.engine, episodes=args.episodes,
                                params=params, seed=args.seed, video=args.video)

@@ -6,10 +6,11 @@ checks the folder's configuration against the one asked for.
 from __future__ import annotations
 
 import json
-import tomllib
+import sys
+from collections.abc import Mapping
 from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any
 
 from mahn_envs.core import TaskParams
 from mahn_envs.core.rng import check_seed
@@ -18,6 +19,11 @@ from .cppn import CPPN_ACTIVATIONS
 from .evaluator import AGGREGATES, NOISE_DRAWS
 from .neat.settings import NeatSettings, with_legacy_values
 from .substrate import MODES
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # Python 3.10: the same parser from PyPI (a dependency there, see pyproject.toml)
+    import tomli as tomllib
 
 INITS = ("iros2011", "minimal")
 
@@ -90,7 +96,7 @@ class TrainConfig:
         return d
 
     @classmethod
-    def from_mapping(cls, data: Mapping[str, Any]) -> "TrainConfig":
+    def from_mapping(cls, data: Mapping[str, Any]) -> TrainConfig:
         names = {f.name for f in fields(cls)}
         unknown = set(data) - names
         if unknown:
@@ -103,13 +109,13 @@ class TrainConfig:
         return cls(**kw)
 
     @classmethod
-    def from_saved(cls, data: Mapping[str, Any]) -> "TrainConfig":
+    def from_saved(cls, data: Mapping[str, Any]) -> TrainConfig:
         """A configuration a run saved (config.json, checkpoint), read with the values it was run with: settings
         whose default changed since are filled with their old value (see neat.settings.LEGACY_VALUES)."""
         data = {k: v for k, v in data.items() if k not in ("kind", "version")}
         return cls.from_mapping({**data, "neat": with_legacy_values(data.get("neat", {}))})
 
-    def with_noise(self, preset: str) -> "TrainConfig":
+    def with_noise(self, preset: str) -> TrainConfig:
         """This configuration with the task noise of a named preset (see mahn_evo.evaluate.NOISE_PRESETS)."""
         from .evaluate import NOISE_PRESETS
 
@@ -120,7 +126,7 @@ class TrainConfig:
         task = {**self.task.to_dict(), **noise_free, **NOISE_PRESETS[preset]}
         return replace(self, task=TaskParams.from_mapping(task))
 
-    def with_overrides(self, **changes: Any) -> "TrainConfig":
+    def with_overrides(self, **changes: Any) -> TrainConfig:
         """Apply CLI-style overrides; `pop` is a shortcut for neat.population_size."""
         changes = {k: v for k, v in changes.items() if v is not None}
         neat = self.neat
@@ -135,7 +141,7 @@ def _has_species_fields(neat: NeatSettings) -> bool:
     return {"species_count_min", "species_count_max"} <= {f.name for f in fields(neat)}
 
 
-def load_config_file(path: "str | Path", base: "TrainConfig | None" = None) -> TrainConfig:
+def load_config_file(path: str | Path, base: TrainConfig | None = None) -> TrainConfig:
     """A TrainConfig from a TOML/JSON file; the file's fields (and its `neat`/`task` keys) override `base`."""
     p = Path(path)
     if not p.exists():

@@ -18,13 +18,15 @@ import csv
 import math
 import sys
 import time
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable, Optional, Sequence
+from typing import Any
 
 import numpy as np
 
 from mahn_envs.controllers import TeamControllers
+from mahn_envs.core.params import ORIGINAL_MAX_TICKS, ORIGINAL_SIGNAL_TICK
 from mahn_envs.policy import ControllerPolicy
 
 LOG_HEADER = ("tick", "time", "agent", "ir0", "ir1", "ir2", "ir3", "ir4", "ir5", "signal", "out_left",
@@ -39,11 +41,11 @@ class DeployResult:
     mean_period: float
     max_period: float
     overruns: int
-    team_fitness: Optional[float]
-    solved: Optional[bool]
+    team_fitness: float | None
+    solved: bool | None
 
 
-def load_team(path: "str | Path") -> tuple[TeamControllers, dict[str, Any]]:
+def load_team(path: str | Path) -> tuple[TeamControllers, dict[str, Any]]:
     """The controllers of a champion file (``{"controllers": {...}}``) or of a bare controllers file."""
     from .files import read_json_object
 
@@ -64,20 +66,25 @@ def _fmt(v: float) -> str:
     return "" if v is None or (isinstance(v, float) and not math.isfinite(v)) else f"{v:.6g}"
 
 
-def deploy(champion_path: "str | Path", ports: Optional[Sequence[str]] = None, *,
-           log_path: "str | Path | None" = None, map: Optional[str] = None, max_cycles: int = 1364,
-           signal_tick: int = 690, auto_signal: bool = True, placement: Any = "prompt",
-           time_scale: float = 1.0, forward_speed: Optional[float] = None, turn_rate: Optional[float] = None,
+def deploy(champion_path: str | Path, ports: Sequence[str] | None = None, *,
+           log_path: str | Path | None = None, map: str | None = None, max_cycles: int = ORIGINAL_MAX_TICKS,
+           signal_tick: int = ORIGINAL_SIGNAL_TICK, auto_signal: bool = True, placement: Any = None,
+           time_scale: float = 1.0, forward_speed: float | None = None, turn_rate: float | None = None,
            wheel_base: float = 8.85, speed_unit: Any = "auto", calibration: Any = "paper", reflex: bool = True,
            timeout: float = 0.4, attempts: int = 3, emulate: bool = False, emulator_seed: int = 0,
-           clock: Any = None, env_kwargs: Optional[dict] = None, on_tick: Optional[Callable[[int, dict], None]] = None,
-           quiet: bool = True) -> DeployResult:
+           clock: Any = None, env_kwargs: dict | None = None, on_tick: Callable[[int, dict], None] | None = None,
+           quiet: bool = True, stop_wait: float | None = None) -> DeployResult:
     """Run the champion's team for one episode on the robots at `ports` and log every tick to CSV.
 
     With ``emulate=True`` an in-process emulator stands in for the robots (`ports` must then be None); it
-    also acts as the overhead tracker, so the log has poses and the result the task's fitness.  `clock`
+    also acts as the overhead tracker, so the log has poses and the result the task's fitness.  `placement`
+    (None: "prompt" on robots, "none" with the emulator, which places its robots itself) is "prompt" (wait for
+    Enter; needs a terminal or a line on stdin), "none" or a function {agent: pose} -> None.  The CSV log is
+    created once the robots are placed, so a run that fails before that leaves no empty log.  `clock`
     (default: real time times `time_scale`) paces the env and the emulator; a VirtualClock runs lock-step.
-    Returns a :class:`DeployResult`; the robots are stopped whatever happens.
+    Returns a :class:`DeployResult`; the robots are stopped whatever happens.  A stop that a robot has not
+    confirmed is resent in the background: before returning (or raising) deploy waits up to `stop_wait`
+    seconds (None: until every robot confirms, or Ctrl-C) for it, since the resending ends with the program.
     """
     from mahn_envs.hardware import KheperaEmulator, KheperaHardwareEnv, RealClock, RetryPolicy
 
@@ -96,6 +103,8 @@ def deploy(champion_path: "str | Path", ports: Optional[Sequence[str]] = None, *
         log_path = Path(champion_path).with_name(f"deploy-{stamp}.csv")
     log_path = Path(log_path)
     log_path.parent.mkdir(parents=True, exist_ok=True)
+    if placement is None:
+        placement = "none" if emulate else "prompt"
     clock = clock if clock is not None else RealClock(time_scale)
     kwargs = dict(map=map_name, forward_speed=forward_speed, turn_rate=turn_rate, wheel_base=wheel_base,
                   speed_unit=speed_unit, calibration=calibration, reflex=reflex, clock=clock,
@@ -107,49 +116,92 @@ def deploy(champion_path: "str | Path", ports: Optional[Sequence[str]] = None, *
         if emulate:
             emulator = KheperaEmulator(n, map=map_name, clock=clock, seed=emulator_seed).start()
             ports = emulator.ports
-            kwargs["placement"] = emulator.place
+            kwargs["placement"] = _emulator_placement(emulator, kwargs["placement"])
             kwargs.setdefault("pose_source", emulator.poses)
-        with KheperaHardwareEnv(list(ports), **kwargs) as env, open(log_path, "w", newline="") as f:
-            writer = csv.writer(f, lineterminator="\n")
-            writer.writerow(LOG_HEADER)
-            policy = ControllerPolicy(team, env.possible_agents)
-            # compile / load the network before the robots are placed, not inside the first control tick
-            policy.act({a: np.ones(7, dtype=np.float32) for a in env.possible_agents})
-            obs, infos = env.reset()
-            policy.reset()
-            periods = []
-            t0 = clock.now()
-            last_infos = infos
-            while env.agents:
-                live = list(env.agents)
-                actions = policy.act(obs)
-                outputs = policy.outputs
-                inputs = {a: obs[a].copy() for a in live}
-                obs, rewards, terms, truncs, infos = env.step(actions)
-                now = clock.now() - t0
-                for k, a in enumerate(env.possible_agents):
-                    if a not in infos:
-                        continue
-                    info = infos[a]
-                    pose = info["pose"] or (float("nan"),) * 3
-                    writer.writerow([info["tick"], f"{now:.4f}", a, *(f"{v:.6g}" for v in inputs[a]),
-                                     *(f"{v:.6g}" for v in outputs[k]), actions[a], info["motion"],
-                                     info["command"], f"{info['period']:.6f}", *(_fmt(v) for v in pose)])
-                f.flush()
-                periods.append(infos[live[0]]["period"])
-                last_infos = infos
-                if on_tick is not None:
-                    on_tick(infos[live[0]]["tick"], infos)
-                if not quiet and infos[live[0]]["tick"] % 100 == 0:
-                    print(f"tick {infos[live[0]]['tick']}: period {periods[-1] * 1000:.1f} ms", flush=True)
-            last = last_infos[env.possible_agents[0]]
-            p = np.asarray(periods) if periods else np.zeros(1)
-            return DeployResult(ticks=int(last.get("tick", 0)), log_path=log_path, mode=team.mode,
-                                mean_period=float(p.mean()), max_period=float(p.max()), overruns=env.overruns,
-                                team_fitness=last.get("team_fitness"), solved=last.get("solved"))
+        env = KheperaHardwareEnv(list(ports), **kwargs)
+        try:
+            with env:
+                policy = ControllerPolicy(team, env.possible_agents)
+                # compile / load the network before the robots are placed, not inside the first control tick
+                policy.act({a: np.ones(7, dtype=np.float32) for a in env.possible_agents})
+                obs, infos = env.reset()
+                policy.reset()
+                return _run_episode(env, policy, team, obs, infos, clock, log_path, on_tick, quiet)
+        finally:
+            _wait_for_stops(env, stop_wait)
     finally:
         if emulator is not None:
             emulator.stop()
+
+
+def _wait_for_stops(env: Any, stop_wait: float | None) -> None:
+    """Keep the program (and so the background stop resending) alive until every robot confirmed its stop."""
+    pending = env.unconfirmed_stops
+    if not pending:
+        return
+    limit = "" if stop_wait is None else f" (at most {stop_wait:g} s)"
+    print(f"deploy: the stop of {pending} is not confirmed; resending it until the robot answers{limit}, "
+          "Ctrl-C to give up (then stop the robot by hand)", file=sys.stderr, flush=True)
+    try:
+        left = env.wait_stops(stop_wait)
+    except KeyboardInterrupt:
+        left = env.give_up_stops()
+        print(f"deploy: gave up on the stop of {left}: STOP THEM BY HAND", file=sys.stderr, flush=True)
+        raise
+    if left:
+        env.give_up_stops()
+        print(f"deploy: the stop of {left} is still not confirmed: STOP THEM BY HAND", file=sys.stderr, flush=True)
+    else:
+        print(f"deploy: stop of {pending} confirmed", file=sys.stderr, flush=True)
+
+
+def _emulator_placement(emulator: Any, placement: Any) -> Callable[[dict], None]:
+    """The emulator puts its robots at the targets itself; an explicit "prompt" still asks first."""
+    if placement == "prompt":
+        from mahn_envs.hardware import prompt_placement
+
+        return lambda targets: (prompt_placement(targets), emulator.place(targets))[-1]
+    if callable(placement):
+        return lambda targets: (placement(targets), emulator.place(targets))[-1]
+    return emulator.place
+
+
+def _run_episode(env: Any, policy: ControllerPolicy, team: TeamControllers, obs: dict, infos: dict, clock: Any,
+                 log_path: Path, on_tick: Callable[[int, dict], None] | None, quiet: bool) -> DeployResult:
+    """Drive the episode from its first observations, one CSV row per robot per tick."""
+    with open(log_path, "w", newline="") as f:
+        writer = csv.writer(f, lineterminator="\n")
+        writer.writerow(LOG_HEADER)
+        periods = []
+        t0 = clock.now()
+        last_infos = infos
+        while env.agents:
+            live = list(env.agents)
+            actions = policy.act(obs)
+            outputs = policy.outputs
+            inputs = {a: obs[a].copy() for a in live}
+            obs, rewards, terms, truncs, infos = env.step(actions)
+            now = clock.now() - t0
+            for k, a in enumerate(env.possible_agents):
+                if a not in infos:
+                    continue
+                info = infos[a]
+                pose = info["pose"] or (float("nan"),) * 3
+                writer.writerow([info["tick"], f"{now:.4f}", a, *(f"{v:.6g}" for v in inputs[a]),
+                                 *(f"{v:.6g}" for v in outputs[k]), actions[a], info["motion"],
+                                 info["command"], f"{info['period']:.6f}", *(_fmt(v) for v in pose)])
+            f.flush()
+            periods.append(infos[live[0]]["period"])
+            last_infos = infos
+            if on_tick is not None:
+                on_tick(infos[live[0]]["tick"], infos)
+            if not quiet and infos[live[0]]["tick"] % 100 == 0:
+                print(f"tick {infos[live[0]]['tick']}: period {periods[-1] * 1000:.1f} ms", flush=True)
+        last = last_infos[env.possible_agents[0]]
+        p = np.asarray(periods) if periods else np.zeros(1)
+        return DeployResult(ticks=int(last.get("tick", 0)), log_path=log_path, mode=team.mode,
+                            mean_period=float(p.mean()), max_period=float(p.max()), overruns=env.overruns,
+                            team_fitness=last.get("team_fitness"), solved=last.get("solved"))
 
 
 # ---------------------------------------------------------------------------------------------- CLI
@@ -163,11 +215,15 @@ def add_deploy_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--emulate", action="store_true", help="run against an in-process emulator instead of robots")
     p.add_argument("--log", default=None, help="CSV log path (default: deploy-<time>.csv next to the champion)")
     p.add_argument("--map", default=None, help="map for start poses and scoring (default: the champion's)")
-    p.add_argument("--max-cycles", type=int, default=1364, help="ticks to run (default 1364 = 45 s)")
-    p.add_argument("--signal-tick", type=int, default=690, help="tick of the come-home signal (default 690)")
+    p.add_argument("--max-cycles", type=int, default=ORIGINAL_MAX_TICKS,
+                   help="ticks to run (default %(default)s = 45 s, as the paper)")
+    p.add_argument("--signal-tick", type=int, default=ORIGINAL_SIGNAL_TICK,
+                   help="tick of the come-home signal (default %(default)s, as the paper)")
     p.add_argument("--no-auto-signal", action="store_true", help="no scheduled signal")
-    p.add_argument("--placement", choices=["prompt", "none"], default="prompt",
-                   help="prompt: wait for Enter after asking to place the robots; none: they are in place")
+    p.add_argument("--placement", choices=["prompt", "none"], default=None,
+                   help="prompt: wait for Enter after asking to place the robots (needs a terminal); none: they "
+                        "are in place (use it without a terminal). Default: prompt with --ports, none with "
+                        "--emulate (the emulator places its robots)")
     p.add_argument("--time-scale", type=float, default=1.0,
                    help="robot seconds per wall second (only with an emulator started with the same value)")
     p.add_argument("--forward-speed", type=float, default=None, help="cm/s (default 9, the simulator's)")
@@ -218,7 +274,7 @@ def run_deploy(args: argparse.Namespace) -> int:
     return 0
 
 
-def main(argv: Optional[Sequence[str]] = None) -> int:
+def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="mahn-evo")
     sub = parser.add_subparsers(dest="command", required=True)
     add_deploy_parser(sub)

@@ -6,7 +6,7 @@ ControllerPolicy.  Both paths share the task code, so the same team scores the s
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any, Optional
+from typing import Any
 
 import numpy as np
 
@@ -18,14 +18,14 @@ from .champion import Champion
 
 #: Noise of the generalisation test (issue: sensor noise, stochastic turning and locomotion, small start
 #: perturbations).  Levels are percentages / cm / rad as documented in TaskParams.
-NOISE_PRESETS = {
+NOISE_PRESETS: dict[str, dict[str, float]] = {
     "none": {},
     "generalization": {"sensor_noise": 5.0, "effector_noise": 10.0, "heading_noise": 0.005,
                        "start_jitter_xy": 2.0, "start_jitter_heading": 0.1},
 }
 
 
-def task_env(map: str, params: TaskParams, engine: str = "kinematic", render_mode: Optional[str] = None):
+def task_env(map: str, params: TaskParams, engine: str = "kinematic", render_mode: str | None = None):
     """The PettingZoo env of `map` with the task settings of `params` (its fitness sampling is the env's own)."""
     return patrol_return_v0.parallel_env(map=map, engine=engine, render_mode=render_mode,
                                          **{k: v for k, v in params.to_dict().items() if k != "sample_period"})
@@ -34,14 +34,14 @@ def task_env(map: str, params: TaskParams, engine: str = "kinematic", render_mod
 def task_params(noise: str = "none", **overrides: Any) -> TaskParams:
     if noise not in NOISE_PRESETS:
         raise ValueError(f"unknown noise preset {noise!r}; choose one of {sorted(NOISE_PRESETS)}")
-    kw = dict(NOISE_PRESETS[noise])
+    kw: dict[str, Any] = dict(NOISE_PRESETS[noise])
     kw.update({k: v for k, v in overrides.items() if v is not None})
     return TaskParams(**kw)
 
 
-def evaluate_champion(champion: "Champion | str | Path", map: str = "plus", engine: str = "kinematic",
-                      episodes: int = 1, params: Optional[TaskParams] = None, seed: int = 0,
-                      video: "str | Path | None" = None, video_every: int = 4, video_scale: float = 1.0
+def evaluate_champion(champion: Champion | str | Path, map: str = "plus", engine: str = "kinematic",
+                      episodes: int = 1, params: TaskParams | None = None, seed: int = 0,
+                      video: str | Path | None = None, video_every: int = 4, video_scale: float = 1.0
                       ) -> dict[str, Any]:
     """Per-episode and mean team fitness and `solved`; writes a GIF of the first episode if `video`."""
     champ = champion if isinstance(champion, Champion) else Champion.load(champion)
@@ -67,7 +67,7 @@ def evaluate_champion(champion: "Champion | str | Path", map: str = "plus", engi
             info = infos[env.possible_agents[0]]
             fits.append(info["team_fitness"])
             solved.append(info["solved"])
-            if frames is not None:
+            if frames is not None and video is not None:
                 from .plots import save_gif
 
                 save_gif(frames, video, fps=max(1, int(30 / video_every)), scale=video_scale)

@@ -13,8 +13,9 @@ import json
 import math
 import os
 import tempfile
+from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
-from typing import Any, Iterable, Mapping, Sequence
+from typing import Any
 
 FORMAT_VERSION = 1
 
@@ -31,7 +32,7 @@ def _default_mode() -> int:
     return 0o666 & ~umask
 
 
-def atomic_write_text(path: "str | Path", text: str) -> None:
+def atomic_write_text(path: str | Path, text: str) -> None:
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
@@ -54,7 +55,7 @@ def _jsonable(value: Any) -> Any:
     return value
 
 
-def atomic_write_json(path: "str | Path", data: Mapping[str, Any], compact: bool = False) -> None:
+def atomic_write_json(path: str | Path, data: Mapping[str, Any], compact: bool = False) -> None:
     """Indented for files people read; compact (C encoder, ~5x faster) for large machine files."""
     if compact:
         text = json.dumps(data, separators=(",", ":"), allow_nan=False, default=_jsonable)
@@ -63,7 +64,7 @@ def atomic_write_json(path: "str | Path", data: Mapping[str, Any], compact: bool
     atomic_write_text(path, text + "\n")
 
 
-def atomic_write_csv(path: "str | Path", header: Sequence[str], rows: Iterable[Sequence[Any]]) -> None:
+def atomic_write_csv(path: str | Path, header: Sequence[str], rows: Iterable[Sequence[Any]]) -> None:
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
     w.writerow(header)
@@ -71,7 +72,7 @@ def atomic_write_csv(path: "str | Path", header: Sequence[str], rows: Iterable[S
     atomic_write_text(path, buf.getvalue())
 
 
-def read_json_object(path: "str | Path", what: str) -> dict[str, Any]:
+def read_json_object(path: str | Path, what: str) -> dict[str, Any]:
     """A JSON object from a file; a missing file, a folder, undecodable or corrupt JSON or another top level is a
     ValueError naming it."""
     path = Path(path)
@@ -92,12 +93,12 @@ def read_json_object(path: "str | Path", what: str) -> dict[str, Any]:
     return data
 
 
-def read_versioned_json(path: "str | Path", kind: str) -> dict[str, Any]:
+def read_versioned_json(path: str | Path, kind: str) -> dict[str, Any]:
     """Load a file we wrote; a wrong kind, a newer/older version or corrupt JSON is a ValueError naming it."""
     return check_versioned(read_json_object(path, kind), path, kind)
 
 
-def check_versioned(data: dict[str, Any], path: "str | Path", kind: str) -> dict[str, Any]:
+def check_versioned(data: dict[str, Any], path: str | Path, kind: str) -> dict[str, Any]:
     if data.get("kind") != kind:
         raise ValueError(f"{str(path)!r} is not a mahn {kind} file (kind={data.get('kind')!r})")
     version = data.get("version")
@@ -121,7 +122,7 @@ def _sha256(text: str) -> str:
     return hashlib.sha256(text.encode("utf-8")).hexdigest()
 
 
-def atomic_write_checked_json(path: "str | Path", kind: str, payload: Mapping[str, Any]) -> None:
+def atomic_write_checked_json(path: str | Path, kind: str, payload: Mapping[str, Any]) -> None:
     """A versioned machine file whose content carries its sha256, so one changed digit is caught on reading.
 
     The payload is serialised once (canonically) and the header spliced in front: the checksum costs one
@@ -136,7 +137,7 @@ def atomic_write_checked_json(path: "str | Path", kind: str, payload: Mapping[st
     atomic_write_text(path, head[:-1] + ("}" if body == "{}" else "," + body[1:]) + "\n")
 
 
-def read_checked_json(path: "str | Path", kind: str) -> dict[str, Any]:
+def read_checked_json(path: str | Path, kind: str) -> dict[str, Any]:
     """Load a file written by atomic_write_checked_json; a content that does not match its checksum is a
     ValueError naming the file.  Files written before checksums existed (no CHECKSUM_KEY) are accepted."""
     data = read_versioned_json(path, kind)
@@ -159,7 +160,7 @@ def read_checked_json(path: "str | Path", kind: str) -> dict[str, Any]:
 _TEMP_GLOB = ".*.tmp"
 
 
-def remove_stray_temp_files(folder: "str | Path") -> list[Path]:
+def remove_stray_temp_files(folder: str | Path) -> list[Path]:
     """Delete the temporary files that atomic writes leave when a process is killed mid-write (the file they
     were replacing is intact).  Call only while no other process writes into `folder`."""
     folder = Path(folder)

@@ -10,14 +10,14 @@ from __future__ import annotations
 import errno
 import fcntl
 import os
+from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Iterator, Optional
 
 LOCK_NAME = ".mahn.lock"
 
 
-def _read_pid(path: Path) -> Optional[int]:
+def _read_pid(path: Path) -> int | None:
     try:
         text = path.read_text(encoding="ascii").strip()
     except (OSError, UnicodeDecodeError):
@@ -25,7 +25,7 @@ def _read_pid(path: Path) -> Optional[int]:
     return int(text) if text.isdigit() else None
 
 
-def _try_lock(path: Path) -> Optional[int]:
+def _try_lock(path: Path) -> int | None:
     """An fd holding the lock on `path`, or None if another process holds it."""
     while True:
         fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
@@ -45,7 +45,7 @@ def _try_lock(path: Path) -> Optional[int]:
         os.close(fd)
 
 
-def lock_holder(folder: "str | Path") -> Optional[int]:
+def lock_holder(folder: str | Path) -> int | None:
     """The pid of the live process holding `folder`'s lock (0 if it cannot be read), or None if it is free."""
     path = Path(folder) / LOCK_NAME
     if not path.exists():
@@ -57,7 +57,7 @@ def lock_holder(folder: "str | Path") -> Optional[int]:
     return None
 
 
-def check_folder_usable(folder: "str | Path", what: str) -> Path:
+def check_folder_usable(folder: str | Path, what: str) -> Path:
     """`folder` is a folder or can be made one: an existing file in its place is a ValueError naming it."""
     folder = Path(folder)
     for p in (folder, *folder.parents):
@@ -71,7 +71,7 @@ def check_folder_usable(folder: "str | Path", what: str) -> Path:
 
 
 @contextmanager
-def folder_lock(folder: "str | Path", what: str = "folder") -> Iterator[Path]:
+def folder_lock(folder: str | Path, what: str = "folder") -> Iterator[Path]:
     """Hold `folder` (created if needed) for this process; a folder held by a live process is a ValueError naming
     its pid.  A folder this call created and left empty is removed again, so a refused start leaves nothing."""
     folder = check_folder_usable(folder, what)

@@ -8,7 +8,7 @@ solution of a run is the top row.
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any, Optional
+from typing import Any
 
 import numpy as np
 
@@ -20,7 +20,7 @@ from .evaluate import task_params
 from .files import atomic_write_csv, atomic_write_json, versioned
 
 
-def solutions_of(run_dir: "str | Path") -> list[Path]:
+def solutions_of(run_dir: str | Path) -> list[Path]:
     """Archived solutions of a run (falls back to the champion when the archive is empty)."""
     run = Path(run_dir)
     if not run.is_dir():
@@ -33,7 +33,7 @@ def solutions_of(run_dir: "str | Path") -> list[Path]:
     return files
 
 
-def generalize(run_dir: "str | Path", episodes: int = 25, map: str = "plus", params: Optional[TaskParams] = None,
+def generalize(run_dir: str | Path, episodes: int = 25, map: str = "plus", params: TaskParams | None = None,
                seed: int = 0, write: bool = True) -> list[dict[str, Any]]:
     """Rank a run's solutions by mean fitness under noise; writes generalization.json/.csv in the run folder."""
     files = solutions_of(run_dir)
@@ -47,11 +47,11 @@ def generalize(run_dir: "str | Path", episodes: int = 25, map: str = "plus", par
     sim = BatchSim(map, n * episodes, params)
     batch = TeamControllers(*(np.repeat(getattr(teams, f), episodes, axis=0)
                               for f in ("w_ih", "w_hh", "w_ho", "b_h", "b_o")))
-    keys = np.tile(np.arange(episodes), n)
+    keys = np.tile(np.arange(episodes), n).tolist()
     res = sim.run_controllers(batch, seed=seed, episode_keys=keys)
     fit = res.fitness.reshape(n, episodes)
     solved = res.solved.reshape(n, episodes)
-    rows = []
+    rows: list[dict[str, Any]] = []
     for i, (f, c) in enumerate(zip(files, champs)):
         rows.append({"file": f.name, "generation": c.generation, "training_fitness": c.fitness,
                      "mean_fitness": float(fit[i].mean()), "std_fitness": float(fit[i].std()),

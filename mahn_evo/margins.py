@@ -11,7 +11,7 @@ they are, before anyone spends a day on noisy transfer tests.
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any, Optional
+from typing import Any
 
 import numpy as np
 
@@ -40,7 +40,7 @@ def _jittered(obs: dict, rng: np.random.Generator, probe: float) -> dict:
     return out
 
 
-def decision_margins(champion: "Champion | str | Path", map: str = "plus", params: Optional[TaskParams] = None,
+def decision_margins(champion: Champion | str | Path, map: str = "plus", params: TaskParams | None = None,
                      seed: int = 0, probe: float = PROBE) -> dict[str, Any]:
     """Margin statistics of one training-protocol episode (kinematic engine).
 

@@ -2,12 +2,16 @@
 from __future__ import annotations
 
 import csv
+from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Optional, Sequence
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from mahn_envs.maps import World
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 ROBOT_COLOURS = ["#4285f4", "#db4437", "#0f9d58", "#f4a000", "#ab47bc", "#00acc1"]
 
@@ -21,28 +25,57 @@ def _mpl():
     return plt
 
 
-def fitness_curve(log_csv: "str | Path", out_png: "str | Path", title: str = "") -> None:
-    """Best, best-ever and mean fitness per generation; the solved line at 100."""
+#: Fitness values labelled on the y axis: linear up to 10 (where the patrol credit of early generations lives),
+#: logarithmic above (up to the +100 bonus of a solution), with plain numbers rather than powers of ten.
+FITNESS_TICKS = (0, 2, 4, 6, 8, 10, 20, 50, 100, 200)
+
+
+def fitness_curve(log_csv: str | Path, out_png: str | Path, title: str = "") -> None:
+    """Best so far (the champion), the best and mean of each generation, and the solved line at 100.
+
+    The best so far is drawn as a thick step line on top, and each generation's best as small dots, because the
+    two coincide on most generations and a thin line under a thick one would be invisible.
+    """
     with open(log_csv) as f:
         rows = list(csv.DictReader(f))
     if not rows:
         return
+    fig = fitness_figure(rows, title)
+    fig.savefig(out_png, bbox_inches="tight")
+    _mpl().close(fig)
+
+
+def fitness_figure(rows: Sequence[Mapping[str, Any]], title: str = "") -> Figure:
+    """The figure of :func:`fitness_curve` from the rows of a run's log.csv (generation, best_fitness,
+    mean_fitness, best_ever)."""
     plt = _mpl()
+    from matplotlib.ticker import FixedLocator, FuncFormatter, NullLocator
+
     gen = [int(r["generation"]) for r in rows]
-    fig, ax = plt.subplots(figsize=(6.4, 3.8), dpi=110)
-    ax.plot(gen, [float(r["best_ever"]) for r in rows], label="best so far", color="#0f9d58", lw=2)
-    ax.plot(gen, [float(r["best_fitness"]) for r in rows], label="generation best", color="#4285f4", lw=1)
-    ax.plot(gen, [float(r["mean_fitness"]) for r in rows], label="generation mean", color="#999999", lw=1)
-    ax.axhline(100, color="#db4437", ls="--", lw=1, label="solved (> 100)")
+    best_ever = [float(r["best_ever"]) for r in rows]
+    fig, ax = plt.subplots(figsize=(8.4, 3.8), dpi=110)
+    ax.plot(gen, [float(r["mean_fitness"]) for r in rows], label="mean of each generation", color="#999999", lw=1)
+    ax.plot(gen, [float(r["best_fitness"]) for r in rows], ".", label="best of each generation", color="#4285f4",
+            ms=3)
+    ax.step(gen, best_ever, where="post", label="best so far (the champion)", color="#0b6e3a", lw=2.2, zorder=3)
+    ax.axhline(100, color="#db4437", ls="--", lw=1, label="solved: fitness > 100")
+    ax.annotate(f"{best_ever[-1]:.1f}", (gen[-1], best_ever[-1]), xytext=(4, 0), textcoords="offset points",
+                va="center", fontsize=8, color="#0b6e3a")
     ax.set_xlabel("generation")
     ax.set_ylabel("team fitness")
-    ax.set_yscale("symlog", linthresh=10)
+    ax.set_yscale("symlog", linthresh=10, linscale=1.5)
+    top = max(150.0, max(best_ever) * 1.3)
+    ax.set_ylim(0, top)
+    ax.yaxis.set_major_locator(FixedLocator([t for t in FITNESS_TICKS if t <= top]))
+    ax.yaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+    ax.yaxis.set_minor_locator(NullLocator())
+    ax.set_xlim(gen[0], gen[-1] + max(1, 0.08 * (gen[-1] - gen[0])))
     ax.set_title(title or "fitness")
-    ax.legend(loc="upper left", fontsize=8)
+    # beside the axes: inside, the curves of a short or a long run would each cover some corner
+    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, frameon=False)
     ax.grid(alpha=0.3)
     fig.tight_layout()
-    fig.savefig(out_png)
-    plt.close(fig)
+    return fig
 
 
 def draw_world(ax, world: World) -> None:
@@ -64,28 +97,47 @@ def _circle(x, y, r, colour):
     return mpatches.Circle((x, y), r, fill=False, ls=":", color=colour)
 
 
-def trajectory_plot(world: World, trajectories: np.ndarray, out_png: "str | Path", title: str = "",
-                    signal_tick: Optional[int] = None) -> None:
-    """Paths of every robot (trajectories (T+1, R, >=2)); dashed after the signal."""
+def trajectory_plot(world: World, trajectories: np.ndarray, out_png: str | Path, title: str = "",
+                    signal_tick: int | None = None) -> None:
+    """Paths of every robot (trajectories (T+1, R, >=2)): solid before the signal, dashed after it; a circle
+    marks where a robot started and a square where it ended.  The legend says so, for readers of the picture."""
+    fig = trajectory_figure(world, trajectories, title, signal_tick)
+    fig.savefig(out_png, bbox_inches="tight")
+    _mpl().close(fig)
+
+
+def trajectory_figure(world: World, trajectories: np.ndarray, title: str = "",
+                      signal_tick: int | None = None) -> Figure:
+    """The figure of :func:`trajectory_plot`."""
+    from matplotlib.lines import Line2D
+
     plt = _mpl()
-    fig, ax = plt.subplots(figsize=(5, 5), dpi=110)
+    fig, ax = plt.subplots(figsize=(6.2, 5), dpi=110)
     draw_world(ax, world)
     T = trajectories.shape[0]
     cut = T if signal_tick is None else min(signal_tick + 1, T)
+    handles = []
     for r in range(trajectories.shape[1]):
         c = ROBOT_COLOURS[r % len(ROBOT_COLOURS)]
-        ax.plot(trajectories[:cut, r, 0], trajectories[:cut, r, 1], color=c, lw=1.5, label=f"robot_{r}")
+        (line,) = ax.plot(trajectories[:cut, r, 0], trajectories[:cut, r, 1], color=c, lw=1.5, label=f"robot_{r}")
+        handles.append(line)
         ax.plot(trajectories[cut - 1:, r, 0], trajectories[cut - 1:, r, 1], color=c, lw=1.2, ls="--")
         ax.plot(*trajectories[0, r, :2], "o", color=c, ms=4)
         ax.plot(*trajectories[-1, r, :2], "s", color=c, ms=4)
+    key = "#555555"
+    if signal_tick is not None:
+        handles.append(Line2D([], [], color=key, lw=1.5, label="before the signal"))
+        handles.append(Line2D([], [], color=key, lw=1.2, ls="--", label="after the signal (come home)"))
+    handles.append(Line2D([], [], color=key, marker="o", ls="", ms=4, label="start"))
+    handles.append(Line2D([], [], color=key, marker="s", ls="", ms=4, label="end"))
     ax.set_title(title, fontsize=9)
-    ax.legend(loc="lower right", fontsize=7)
+    # beside the map, not on it: every corner of some map holds an arm, home or a post
+    ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.0, 1.0), fontsize=7, frameon=False)
     fig.tight_layout()
-    fig.savefig(out_png)
-    plt.close(fig)
+    return fig
 
 
-def save_gif(frames: Sequence[np.ndarray], out_path: "str | Path", fps: int = 15, scale: float = 1.0) -> None:
+def save_gif(frames: Sequence[np.ndarray], out_path: str | Path, fps: int = 15, scale: float = 1.0) -> None:
     """Write RGB frames as an animated GIF (Pillow), atomically.
 
     One shared palette (taken from the first, middle and last frames, so colours that appear late are in it)

@@ -14,12 +14,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass, field
-from typing import Any, Optional
+from typing import Any
 
 import numpy as np
 
 from mahn_envs import patrol_return_v0
 from mahn_envs.core import TaskParams
+from mahn_envs.core.params import ORIGINAL_MAX_TICKS
 
 HOME_REACHED = 20.0  # Manhattan, as the fitness's reachGoal
 POST_REACHED = 15.0  # Manhattan, as the fitness's allClose
@@ -29,7 +30,7 @@ POST_REACHED = 15.0  # Manhattan, as the fitness's allClose
 class SequentialSettings:
     """Timing of the sequential protocol (ticks of 33 ms) and what counts as stopped."""
 
-    patrol_ticks: int = 1364  # longest wait for every robot to stop at a post
+    patrol_ticks: int = ORIGINAL_MAX_TICKS  # longest wait for every robot to stop at a post (one episode)
     min_patrol_ticks: int = 150
     return_ticks: int = 1500  # longest wait for a called robot to reach home
     out_ticks: int = 1500  # longest wait for it to be back at its post
@@ -41,8 +42,8 @@ class SequentialSettings:
 @dataclass
 class RobotRecord:
     agent: str
-    left_tick: Optional[int] = None
-    post: Optional[int] = None  # POI index it stopped at
+    left_tick: int | None = None
+    post: int | None = None  # POI index it stopped at
     reached_post: bool = False
     returned_home: bool = False
     went_back_out: bool = False
@@ -54,7 +55,7 @@ class SequentialResult:
     stages_completed: int
     robots: list[RobotRecord] = field(default_factory=list)
     ticks: int = 0
-    trajectory: Optional[np.ndarray] = None  # (T, R, 3)
+    trajectory: np.ndarray | None = None  # (T, R, 3)
 
     @property
     def score(self) -> float:
@@ -98,9 +99,9 @@ class _Runner:
         return math.hypot(a[0] - b[0], a[1] - b[1]) < self.s.stop_distance
 
 
-def sequential_episode(policy, map: str = "plus", params: Optional[TaskParams] = None, seed: int = 0,
-                       settings: Optional[SequentialSettings] = None, record: bool = False,
-                       frames: Optional[list] = None, frame_every: int = 10) -> SequentialResult:
+def sequential_episode(policy, map: str = "plus", params: TaskParams | None = None, seed: int = 0,
+                       settings: SequentialSettings | None = None, record: bool = False,
+                       frames: list | None = None, frame_every: int = 10) -> SequentialResult:
     """One episode of the sequential protocol; RGB frames (every `frame_every` ticks) go to `frames` if given."""
     s = settings or SequentialSettings()
     params = params or TaskParams()
@@ -140,6 +141,8 @@ def sequential_episode(policy, map: str = "plus", params: Optional[TaskParams] =
     if len(set(posts)) != len(posts):  # two robots at one post: only the first keeps it
         seen: set[int] = set()
         for r in records:
+            if r.post is None:
+                continue
             if r.reached_post and r.post in seen:
                 r.reached_post = False
             seen.add(r.post)
@@ -176,8 +179,25 @@ def sequential_episode(policy, map: str = "plus", params: Optional[TaskParams] =
                             np.asarray(run.history) if record else None)
 
 
-def sequential(policy, map: str = "plus", params: Optional[TaskParams] = None, episodes: int = 1, seed: int = 0,
-               settings: Optional[SequentialSettings] = None) -> dict[str, Any]:
+#: What the sequential protocol counts as stages, three per robot, in the order they happen.
+SEQUENTIAL_STAGES = ("reached its own post", "came home when called", "went back out to its post")
+
+
+def sequential_summary(result: dict[str, Any], map: str) -> str:
+    """The result of :func:`sequential` for people: per episode, success and stages done out of possible, and
+    what a stage is (the numbers alone do not say)."""
+    lines = [f"sequential protocol on {map}:"]
+    for e, ep in enumerate(result["episodes"]):
+        possible = len(SEQUENTIAL_STAGES) * len(ep["robots"])
+        lines.append(f"  episode {e}: {'success' if ep['success'] else 'fail'}, "
+                     f"{ep['stages_completed']}/{possible} stages")
+    lines.append(f"  stages: {len(SEQUENTIAL_STAGES)} per robot: it " + ", it ".join(SEQUENTIAL_STAGES)
+                 + "; success = every stage of every robot")
+    return "\n".join(lines)
+
+
+def sequential(policy, map: str = "plus", params: TaskParams | None = None, episodes: int = 1, seed: int = 0,
+               settings: SequentialSettings | None = None) -> dict[str, Any]:
     """Per-episode results of the sequential protocol.  `fitness` is the fraction of stages completed."""
     results = [sequential_episode(policy, map, params, seed + e, settings) for e in range(episodes)]
     return {"fitness": [r.score for r in results], "solved": [r.success for r in results],

@@ -1,4 +1,4 @@
-"""Substrate geometry and CPPN -> team-controller decoding (multiagent HyperNEAT, section 6 of the sheet).
+"""Substrate geometry and CPPN -> team-controller decoding (multiagent HyperNEAT, docs/original-system.md section 6).
 
 Every robot's brain is the same 6(+1)-9-3 substrate painted by one CPPN at the robot's policy-geometry
 coordinate z (and, for situational policy geometry, at S = -1 for the patrol brain and S = +1 for the return
@@ -8,9 +8,9 @@ per generation rather than a Python loop per connection.
 """
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import lru_cache
-from typing import Sequence
 
 import numpy as np
 

@@ -27,8 +27,15 @@ import numpy as np
 from .champion import Champion
 from .config import TrainConfig
 from .evaluator import TeamEvaluator
-from .files import (atomic_write_checked_json, atomic_write_csv, atomic_write_json, read_checked_json,
-                    read_versioned_json, remove_stray_temp_files, versioned)
+from .files import (
+    atomic_write_checked_json,
+    atomic_write_csv,
+    atomic_write_json,
+    read_checked_json,
+    read_versioned_json,
+    remove_stray_temp_files,
+    versioned,
+)
 from .folder_lock import check_folder_usable
 from .neat.genome import Genome
 from .neat.population import Population
@@ -61,7 +68,7 @@ class Progress:
 class Trainer:
     """One evolutionary run in a folder.  Create it fresh or with resume=True to continue a checkpoint."""
 
-    def __init__(self, config: TrainConfig, out_dir: "str | Path", resume: bool = False,
+    def __init__(self, config: TrainConfig, out_dir: str | Path, resume: bool = False,
                  overwrite: bool = False) -> None:
         """resume: continue the folder's checkpoint (a run killed before its first checkpoint starts over, the
         same run from the same config).  overwrite: remove the folder's old run first.  A fresh run in a
@@ -261,7 +268,7 @@ def _saved_values(saved: dict[str, Any], keys: list[str]) -> str:
     return ", ".join(vals)
 
 
-def train(config: TrainConfig, out_dir: "str | Path", resume: bool = False,
+def train(config: TrainConfig, out_dir: str | Path, resume: bool = False,
           on_generation: Optional[Callable[[Progress], None]] = None, overwrite: bool = False) -> dict:
     """Python API of `mahn-evo train`: run (or continue, or replace) a run and return its summary."""
     return Trainer(config, out_dir, resume=resume, overwrite=overwrite).run(on_generation)

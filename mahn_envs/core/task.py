@@ -3,7 +3,7 @@
 Each function works on one episode `b` of batch-shaped state arrays, so the same code runs inside the
 trainer's fused parallel loop, the env's per-step kernel and the pymunk engine.  Numbers and their quirks
 (float32 rounding points, the /10 and /100 rules, Manhattan vs Euclidean) follow
-shared/reference/iros2011-original-system.md sections 2-4 and 7.
+docs/original-system.md sections 2-4 and 7.
 
 State layout (B episodes, R robots, P points of interest):
   pose  (B, R, 4) float64  x, y, heading, velocity

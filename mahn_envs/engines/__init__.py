@@ -4,7 +4,6 @@ Both expose the same small interface over a one-episode BatchSim, so the env doe
 """
 from __future__ import annotations
 
-
 from ..core import TaskParams
 from ..khepera import DEFAULT_MODEL, KheperaModel
 from ..maps import World

@@ -1,8 +1,6 @@
 """The default engine: the compiled batch core with one episode."""
 from __future__ import annotations
 
-from typing import Optional
-
 import numpy as np
 
 from ..core import BatchSim, TaskParams
@@ -18,7 +16,7 @@ class KinematicEngine:
     def __init__(self, world: World, params: TaskParams, model: KheperaModel = DEFAULT_MODEL) -> None:
         self.sim = BatchSim(world, 1, params, model)
 
-    def reset(self, seed: int, poses: Optional[np.ndarray] = None) -> np.ndarray:
+    def reset(self, seed: int, poses: np.ndarray | None = None) -> np.ndarray:
         return self.sim.reset(seed=seed, poses=poses)[0]
 
     def step(self, actions: np.ndarray) -> tuple[np.ndarray, float, bool]:

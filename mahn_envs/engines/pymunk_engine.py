@@ -8,13 +8,11 @@ scoring are the core's compiled functions, called on the same state arrays.
 from __future__ import annotations
 
 import math
-from typing import Optional
 
 import numpy as np
 import pymunk
 
-from ..core import BatchSim, TaskParams
-from ..core import kernels
+from ..core import BatchSim, TaskParams, kernels
 from ..core import task as T
 from ..core.geometry import touches_any_wall
 from ..khepera import DEFAULT_MODEL, KheperaModel
@@ -51,7 +49,7 @@ class PymunkEngine:
             body.velocity = (0.0, 0.0)
             body.angle = float(pose[r, T.H])
 
-    def reset(self, seed: int, poses: Optional[np.ndarray] = None) -> np.ndarray:
+    def reset(self, seed: int, poses: np.ndarray | None = None) -> np.ndarray:
         obs = self.sim.reset(seed=seed, poses=poses)[0]
         self._sync_bodies()
         return obs

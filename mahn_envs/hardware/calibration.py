@@ -126,7 +126,7 @@ def make_calibration(spec: Any = "paper") -> Any:
 
 
 # Relative noise (Gaussian sigma / value) of a real Khepera III IR sensor against the gap in metres, from
-# K-Team's calibration as used by the Webots model (reference/khepera3.md).  Used by the emulator.
+# K-Team's calibration as used by the Webots model (docs/original-system.md section 12).  Used by the emulator.
 NOISE_GAP_M = np.array([0.0, 0.0135, 0.018, 0.0225, 0.027, 0.0405, 0.0585, 0.0675, 0.0855, 0.1035, 0.153,
                         0.252, 0.4455])
 NOISE_SIGMA = np.array([0.0015, 0.10, 0.19, 0.22, 0.23, 0.27, 0.21, 0.15, 0.12, 0.22, 0.52, 0.84, 1.0])

@@ -9,6 +9,10 @@ Faults can be injected per robot to test the host's error paths (:meth:`KheperaE
 ``drop`` (ignore the command, no reply), ``garbage`` (execute it, answer a corrupt line), ``delay`` (answer
 late) and ``disconnect`` (close the connection without executing).  Every command line received is logged
 with its robot time, so tests can check exactly which stop commands arrived.
+
+Limits, so that no client can wedge or bloat it: a client that sends nothing for `idle_timeout` wall seconds
+is disconnected (the port is free for the next one); input without a line end is dropped after 1024 bytes;
+the command log keeps the newest lines within `log_bytes` bytes (each line logged at most 256 characters).
 """
 from __future__ import annotations
 
@@ -17,7 +21,7 @@ import threading
 import time
 from collections import deque
 from dataclasses import dataclass
-from typing import Any, Optional, Sequence
+from typing import Any, Optional
 
 from . import protocol as P
 from .emulated_world import EmulatedWorld
@@ -25,6 +29,8 @@ from .emulated_world import EmulatedWorld
 FAULT_KINDS = ("drop", "garbage", "delay", "disconnect")
 GARBAGE = b"n,12#\x07?garbage,,\r\n"
 LOOPBACK = ("127.0.0.1", "localhost", "::1")
+MAX_PENDING_INPUT = 1024  # bytes without a line end before they are dropped as noise
+MAX_LOGGED_LINE = 256  # characters of one command line kept in the log (the longest valid command is ~26)
 
 
 @dataclass
@@ -83,11 +89,15 @@ class KheperaEmulator:
 
     def __init__(self, n_robots: int = 3, *, host: str = "127.0.0.1", port: int = 0,
                  world: Optional[EmulatedWorld] = None, eol: str = "\r\n", allow_remote: bool = False,
-                 **world_kwargs: Any) -> None:
+                 idle_timeout: Optional[float] = 60.0, log_bytes: int = 4_000_000, **world_kwargs: Any) -> None:
         if host not in LOOPBACK and not allow_remote:
             raise ValueError(f"the emulator binds loopback only unless allow_remote=True (got host {host!r})")
         if not 0 <= int(port) <= 65535:
             raise ValueError(f"port must be in 0..65535, got {port!r}")
+        if idle_timeout is not None and not (isinstance(idle_timeout, (int, float)) and idle_timeout > 0):
+            raise ValueError(f"idle_timeout must be a positive number of seconds or None, got {idle_timeout!r}")
+        if isinstance(log_bytes, bool) or not isinstance(log_bytes, int) or log_bytes < 1024:
+            raise ValueError(f"log_bytes must be an integer >= 1024, got {log_bytes!r}")
         self.world = world if world is not None else EmulatedWorld(n_robots=n_robots, **world_kwargs)
         if self.world.n_robots != n_robots:
             raise ValueError(f"world has {self.world.n_robots} robots, emulator asked for {n_robots}")
@@ -101,7 +111,11 @@ class KheperaEmulator:
         self._listeners: list[socket.socket] = []
         self._threads: list[threading.Thread] = []
         self._conns: list[Optional[socket.socket]] = [None] * n_robots
-        self._log: list[deque] = [deque(maxlen=200_000) for _ in range(n_robots)]
+        self.idle_timeout = idle_timeout
+        self.log_bytes = log_bytes
+        self._log: list[deque] = [deque() for _ in range(n_robots)]
+        self._log_size = [0] * n_robots
+        self.idle_disconnects = [0] * n_robots
         self.connections = [0] * n_robots
         self.errors: list[str] = []  # internal errors while answering (tests assert there are none)
         self.addresses: list[tuple[str, int]] = []
@@ -216,20 +230,25 @@ class KheperaEmulator:
 
     def _handle(self, k: int, conn: socket.socket) -> None:
         buf = bytearray()
+        last_input = time.monotonic()
         while not self._stop.is_set():
             try:
                 chunk = conn.recv(4096)
             except socket.timeout:
+                if self.idle_timeout is not None and time.monotonic() - last_input > self.idle_timeout:
+                    self.idle_disconnects[k] += 1
+                    return  # an idle client must not hold the robot's port forever
                 continue
             except OSError:
                 return
             if not chunk:
                 return  # client closed
+            last_input = time.monotonic()
             buf.extend(chunk)
             while True:
                 cut = min((i for i in (buf.find(b"\n"), buf.find(b"\r")) if i >= 0), default=-1)
                 if cut < 0:
-                    if len(buf) > 1024:
+                    if len(buf) > MAX_PENDING_INPUT:
                         buf.clear()  # no line end in sight: drop the noise, as kh3server's line buffer would
                     break
                 line = bytes(buf[:cut])
@@ -253,7 +272,7 @@ class KheperaEmulator:
         text = line.decode("ascii", errors="replace")
         world = self.world
         t = world.command_received(k)
-        self._log[k].append((t, text))
+        self._record(k, t, text)
         letter = text[:1]
         fault = self._take_fault(k, letter)
         if fault is not None:
@@ -267,6 +286,16 @@ class KheperaEmulator:
         if fault is not None and fault.kind == "garbage":
             return GARBAGE
         return reply
+
+    def _record(self, k: int, t: float, text: str) -> None:
+        """Log a command line, keeping the newest lines within `log_bytes` (junk must not grow memory)."""
+        if len(text) > MAX_LOGGED_LINE:
+            text = text[:MAX_LOGGED_LINE] + "..."
+        log = self._log[k]
+        log.append((t, text))
+        self._log_size[k] += len(text) + 1
+        while self._log_size[k] > self.log_bytes and log:
+            self._log_size[k] -= len(log.popleft()[1]) + 1
 
     def _execute(self, k: int, text: str) -> bytes:
         eol = self.eol
@@ -312,12 +341,3 @@ def _close(s: Optional[socket.socket]) -> None:
         s.close()
     except OSError:
         pass
-
-
-def start_emulator(n_robots: int = 3, **kwargs: Any) -> KheperaEmulator:
-    """Create and start an emulator (convenience for scripts and tests)."""
-    return KheperaEmulator(n_robots, **kwargs).start()
-
-
-def emulator_ports(emulator: KheperaEmulator) -> Sequence[str]:
-    return emulator.ports

@@ -13,8 +13,10 @@ Same agents, spaces and step semantics as ``PatrolReturnEnv``: one observation p
 
 Safety: every robot is sent ``D,l0,l0`` on ``close()``, at the end of an episode, on any exception inside
 ``reset``/``step`` (including Ctrl-C and a robot that stops answering), at interpreter exit and on SIGTERM;
-the env is a context manager.  A robot whose link is dead cannot be reached by anyone: use a robot- or
-bridge-side watchdog for that case (docs/hardware.md).
+the env is a context manager.  On the error paths the stops go to all robots in parallel; a stop counts only
+when the robot answers that stop (transport.py), and one that is not confirmed is reported (a warning,
+``last_stop_report``) and resent in the background until it is.  A robot whose link is dead cannot be
+reached by anyone: it needs a robot-side watchdog (docs/hardware.md, section 4).
 
 Rewards need to know where the robots are: give ``pose_source`` (an overhead tracker; the emulator provides
 one) and the env scores the run with the simulator's own fitness code, so ``team_fitness`` / ``solved`` mean
@@ -47,12 +49,14 @@ from .reflex import reflex_motion
 from .transport import RetryPolicy, RobotLink, open_url
 
 PoseSource = Callable[[], Any]
+NEVER_CONNECTED = "never connected: no command was sent to it"
 Placement = Callable[[dict], None]
 
 
 def prompt_placement(targets: Mapping[str, Optional[tuple]], input_fn: Optional[Callable[[str], str]] = None,
                      print_fn: Callable[..., None] = print) -> None:
-    """Ask the operator to put the robots at their start poses and press Enter."""
+    """Ask the operator to put the robots at their start poses and press Enter.  Without a terminal (stdin at
+    its end) this is a RuntimeError that names ``--placement none``, not an EOFError traceback."""
     input_fn = input_fn if input_fn is not None else input
     print_fn("Place the robots (map frame: x right, y up, cm; heading in degrees, 90 = up):")
     for agent, pose in targets.items():
@@ -60,7 +64,12 @@ def prompt_placement(targets: Mapping[str, Optional[tuple]], input_fn: Optional[
             print_fn(f"  {agent}: anywhere safe")
         else:
             print_fn(f"  {agent}: x={pose[0]:.1f} y={pose[1]:.1f} heading={np.degrees(pose[2]) % 360:.0f} deg")
-    input_fn("Robots are stopped. Press Enter when they are in place... ")
+    try:
+        input_fn("Robots are stopped. Press Enter when they are in place... ")
+    except EOFError:
+        raise RuntimeError("the placement prompt needs someone to press Enter, but stdin is closed (no terminal); "
+                           "place the robots first and run with --placement none (placement='none' in Python)") \
+            from None
 
 
 def _no_placement(targets: Mapping[str, Any]) -> None:
@@ -69,6 +78,32 @@ def _no_placement(targets: Mapping[str, Any]) -> None:
 
 def _sigterm_to_exit(signum: int, frame: Any) -> None:
     raise SystemExit(128 + signum)
+
+
+class _Stopper:
+    """One robot's stop, sent from its own daemon thread: the stop stays the link's pending command, resent
+    every `interval` seconds, until one of its own writes is answered (see transport: a late reply to an
+    earlier command never counts) or it is cancelled.  The thread owns the link while it runs."""
+
+    def __init__(self, env: "KheperaHardwareEnv", link: RobotLink, interval: float) -> None:
+        self.env, self.link, self.interval = env, link, interval
+        self.confirmed = threading.Event()
+        self.cancelled = threading.Event()
+        self.thread = threading.Thread(target=self._run, name=f"khepera-stop-{link.name}", daemon=True)
+
+    def _run(self) -> None:
+        name = self.link.name
+        try:
+            reply = self.link.transact_until_answered(P.STOP, self.interval, self.cancelled,
+                                                      on_error=lambda e: self.env._stop_failed(name, e))
+        except BaseException as exc:  # noqa: BLE001 - a bug here must still show in the report
+            self.env._stop_failed(name, exc)
+            return
+        if reply is not None:
+            self.env._stop_confirmed(name)
+            self.confirmed.set()
+            if self.env._closed:
+                self.link.close()
 
 
 class KheperaHardwareEnv(ParallelEnv):
@@ -170,6 +205,8 @@ class KheperaHardwareEnv(ParallelEnv):
         self._period_measured = 0.0
         self.overruns = 0
         self.last_stop_report: dict[str, Optional[str]] = {}
+        self._stoppers: dict[str, _Stopper] = {}
+        self._report_lock = threading.Lock()
         self.firmware: dict[str, Optional[tuple[int, int]]] = {}
         self.speed_units: list[float] = []
         # connect; on any failure stop and close what was opened
@@ -333,6 +370,7 @@ class KheperaHardwareEnv(ParallelEnv):
         """Stop the robots, let the operator place them, read the sensors.  `seed` only seeds the spaces
         (hardware has no randomness to seed); ``options['poses']`` = {agent: (x, y, heading)} targets."""
         self._check_open()
+        self._check_stops_confirmed()
         try:
             return self._reset(seed, options)
         except BaseException as exc:
@@ -475,29 +513,90 @@ class KheperaHardwareEnv(ParallelEnv):
             raise ValueError(f"unknown agent {agent!r}; agents are {self.possible_agents}") from None
 
     # ------------------------------------------------------------------ safety
-    def stop_all(self, last: Optional[str] = None) -> dict[str, Optional[str]]:
-        """Send every robot a stop, each on its own (one dead link does not keep the others driving); the
-        robot named `last` (the one that just failed) is tried after the others.
-        Returns {agent: None if stopped, else the error text}; never raises."""
-        report: dict[str, Optional[str]] = {}
-        for link in sorted(self._links, key=lambda lk: lk.name == last):
-            try:
-                link.cancel()
-                if not link.is_open:
-                    link.open()
-                link.transact(P.STOP, self._stop_policy)
-                report[link.name] = None
-            except Exception as exc:  # noqa: BLE001 - report every failure, keep stopping the others
-                report[link.name] = f"{type(exc).__name__}: {exc}"
-        self.last_stop_report = report
-        return report
+    def stop_all(self) -> dict[str, Optional[str]]:
+        """Send every robot a stop, all in parallel (one thread per robot), and wait until each stop is
+        confirmed by its own reply or the stop policy's attempts have passed (timeout x attempts, 0.8 s by
+        default).  A stop that is not confirmed by then is reported as "unconfirmed" (with a warning) and
+        its thread keeps resending it in the background until the robot answers one of those stops (the
+        report then says None) or the program exits.  Returns ``last_stop_report``: {agent: None if the
+        robot confirmed a stop, else the reason}; never raises."""
+        policy = self._stop_policy
+        started: list[_Stopper] = []
+        for link in self._links:
+            if link.stats.commands == 0:  # never reached: nothing of ours can be driving it
+                with self._report_lock:
+                    self.last_stop_report[link.name] = NEVER_CONNECTED
+                continue
+            stopper = self._stoppers.get(link.name)
+            if stopper is None or not stopper.thread.is_alive():  # none running (a finished one is replaced)
+                stopper = _Stopper(self, link, policy.timeout)
+                self._stoppers[link.name] = stopper
+                with self._report_lock:
+                    self.last_stop_report[link.name] = "unconfirmed: stop being sent"
+                started.append(stopper)
+        for stopper in started:
+            stopper.thread.start()
+        deadline = time.monotonic() + policy.timeout * policy.attempts
+        for stopper in list(self._stoppers.values()):
+            stopper.confirmed.wait(max(0.0, deadline - time.monotonic()))
+        for name, stopper in list(self._stoppers.items()):
+            if stopper.confirmed.is_set():
+                stopper.thread.join()
+                del self._stoppers[name]
+        with self._report_lock:
+            report = {link.name: self.last_stop_report.get(link.name) for link in self._links}
+            self.last_stop_report = report
+        bad = {a: e for a, e in report.items() if e is not None and e != NEVER_CONNECTED}
+        if bad:
+            warnings.warn(f"stop not confirmed for {sorted(bad)} (retrying in the background until each robot "
+                          f"answers a stop; see env.last_stop_report): {bad}", stacklevel=3)
+        return dict(report)
+
+    @property
+    def unconfirmed_stops(self) -> list[str]:
+        """Robots whose stop is still being resent in the background."""
+        return [name for name, s in self._stoppers.items() if not s.confirmed.is_set()]
+
+    def wait_stops(self, timeout: Optional[float] = None) -> list[str]:
+        """Wait (at most `timeout` seconds) for the background stops to be confirmed; returns the robots
+        still unconfirmed."""
+        deadline = None if timeout is None else time.monotonic() + timeout
+        for stopper in list(self._stoppers.values()):
+            stopper.confirmed.wait(None if deadline is None else max(0.0, deadline - time.monotonic()))
+        return self.unconfirmed_stops
+
+    def give_up_stops(self) -> list[str]:
+        """Stop resending unconfirmed stops (you have stopped those robots by other means, e.g. switched them
+        off) and close their links; returns the robots given up on.  Their report stays "unconfirmed"."""
+        given_up = self.unconfirmed_stops
+        for name in given_up:
+            self._stoppers[name].cancelled.set()
+        for name in list(self._stoppers):
+            stopper = self._stoppers[name]
+            stopper.thread.join(5.0)
+            if not stopper.thread.is_alive():
+                if name in given_up:
+                    stopper.link.close()
+                del self._stoppers[name]
+        return given_up
+
+    def _stop_confirmed(self, name: str) -> None:
+        with self._report_lock:
+            self.last_stop_report[name] = None
+
+    def _stop_failed(self, name: str, error: Exception) -> None:
+        with self._report_lock:
+            self.last_stop_report[name] = f"unconfirmed: {type(error).__name__}: {error}"
+
+    def _check_stops_confirmed(self) -> None:
+        pending = self.unconfirmed_stops
+        if pending:
+            raise RuntimeError(f"the stop of {pending} is not confirmed yet (it is resent in the background until "
+                               f"the robot answers; env.wait_stops() waits for it, env.last_stop_report says why)")
 
     def _emergency_stop(self, exc: BaseException) -> None:
         self.agents = []
-        report = self.stop_all(last=getattr(exc, "robot", None))
-        bad = {a: e for a, e in report.items() if e is not None}
-        if bad and not isinstance(exc, KeyboardInterrupt):
-            warnings.warn(f"emergency stop after {type(exc).__name__}: could not stop {bad}", stacklevel=3)
+        self.stop_all()
 
     def _check_open(self) -> None:
         if self._closed:
@@ -514,8 +613,10 @@ class KheperaHardwareEnv(ParallelEnv):
                 self.stop_all()
         finally:
             # pyserial's socket:// close waits 0.3 s per port ("give the server some time"): close in parallel
+            # a link whose stop is still unconfirmed stays with its stop thread, which closes it when confirmed
+            owned = set(self.unconfirmed_stops)
             closers = [threading.Thread(target=link.close, name=f"khepera-close-{link.name}", daemon=True)
-                       for link in self._links]
+                       for link in self._links if link.name not in owned]
             for t in closers:
                 t.start()
             for t in closers:

@@ -92,10 +92,6 @@ def read_proximity() -> Command:
     return Command("N")
 
 
-def read_ambient() -> Command:
-    return Command("O")
-
-
 def reset_timestamp() -> Command:
     return Command("Z")
 

@@ -12,13 +12,34 @@ Failure handling, kept small and bounded:
   resent, then :class:`LinkError`;
 - a malformed reply -> :class:`ProtocolError` at once (no retry: garbage means something is wrong with the
   line or the firmware, and guessing would hide it).
-All commands this package sends are idempotent set-points or reads, so resending is safe.  A reply that arrives
-after its attempt was abandoned is recognised by its letter and discarded when it shows up in front of a later
-command's reply.
+All commands this package sends are idempotent set-points or reads, so resending is safe.
+
+Which reply answers which command.  The line is FIFO: the robot answers the commands it receives one at a
+time, in the order they arrived, at most once each.  A reply can be late (an abandoned attempt's answer
+turning up while a later command waits) or missing (a lost command or reply).  The link therefore keeps a
+queue of every write it made (each attempt, including writes that raised: they may have reached the robot),
+oldest first, and attributes each reply line to the *oldest* queued write whose command has the reply's
+letter (``$`` to the oldest write of any letter); older queued writes of other letters are popped as lost.
+A reply belongs to the waiting command only when it is attributed to one of that command's own writes;
+otherwise it is stale and dropped (``stats.stale_replies``).
+
+Invariant: a reply attributed to write j answers a write made at or after j.  Proof: let the reply answer
+write i.  Write i was queued when it was made, and leaves the queue only when a reply is attributed to it or
+to a later write.  Every reply read before this one answers a write k < i (FIFO) and, by induction, was
+attributed to a write at or before k, so none of them removed write i.  Hence write i is still queued, has
+the reply's letter, and the oldest such write is at or before i.  Consequence for safety: a stop counts as
+confirmed only when the reply is attributed to one of the stop's own writes, and nothing is written while a
+command waits, so the answered write is a stop: the robot really received a stop.  The queue is never
+cleared (not on a retry, not on a reopen: a serial device can still deliver an old reply after reopening) and
+input is never flushed, because a forgotten write could let its late reply be attributed to a later
+command; dropping a reply is safe, misattributing one is not.  A fragment of a line cut by a reopen cannot
+pass for a reply either: a reply's letter is only ever its first character.
 """
 from __future__ import annotations
 
+import threading
 import time
+from collections import deque
 from dataclasses import dataclass, field
 from typing import Any, Callable, Optional
 
@@ -80,8 +101,17 @@ def _link_errors() -> tuple[type, ...]:
 
 
 @dataclass
+class _Writes:
+    """Consecutive writes of one command (its attempts) that no reply has been attributed to yet."""
+
+    command_id: int
+    letter: Optional[str]  # the reply letter its command expects (None: no known reply)
+    count: int
+
+
+@dataclass
 class RobotLink:
-    """The line to one robot.  Not thread-safe: one link is driven by one thread."""
+    """The line to one robot.  Not thread-safe: one link is driven by one thread at a time."""
 
     url: str
     name: str
@@ -97,13 +127,21 @@ class RobotLink:
         self._port: Any = None
         self._buf = bytearray()
         self._pending: Optional[P.Command] = None
+        self._pending_id = 0
+        self._next_id = 0
         self._sent = False
-        self._stale: dict[str, int] = {}
+        self._queue: deque[_Writes] = deque()  # writes not yet answered, oldest first (see the module doc)
+        self._t_sent = 0.0
 
     # ------------------------------------------------------------------ open / close
     @property
     def is_open(self) -> bool:
         return self._port is not None
+
+    @property
+    def unanswered_writes(self) -> int:
+        """Writes on this line that no reply has been attributed to yet (late replies may still come)."""
+        return sum(w.count for w in self._queue)
 
     def open(self) -> "RobotLink":
         if self._port is None:
@@ -112,8 +150,7 @@ class RobotLink:
                 self._port = self.opener(self.url, min(self.policy.timeout, 0.05), self.baudrate)
             except _link_errors() as exc:
                 raise LinkError(self.name, "(open)", f"cannot open {self.url!r}: {exc}") from exc
-            self._buf.clear()
-            self._stale.clear()
+            self._buf.clear()  # a partial line of the old connection; the write queue is kept (module doc)
         return self
 
     def close(self) -> None:
@@ -137,11 +174,8 @@ class RobotLink:
         return self.finish(policy)
 
     def cancel(self) -> None:
-        """Give up on the pending command (if any): its reply, if it still comes, will be discarded."""
-        if self._pending is not None:
-            if self._port is not None and self._sent:
-                self._abandon(self._pending)
-            self._pending = None
+        """Give up on the pending command (if any): its reply, if it still comes, will be dropped as stale."""
+        self._pending = None
 
     def send(self, command: P.Command) -> None:
         """Put `command` on the line; its reply is read by :meth:`finish`.  Write errors are retried there."""
@@ -149,9 +183,7 @@ class RobotLink:
             raise RuntimeError(f"robot {self.name!r}: command {self._pending.text!r} still waits for its reply")
         if self._port is None:
             raise LinkError(self.name, command.text, "link is closed")
-        self._pending = command
-        self.stats.commands += 1
-        self._t_sent = time.monotonic()
+        self._begin(command)
         self._sent = self._write(command)
 
     def finish(self, policy: Optional[RetryPolicy] = None) -> P.Reply:
@@ -162,18 +194,15 @@ class RobotLink:
             raise RuntimeError(f"robot {self.name!r}: finish() without a pending command")
         reconnects = 0
         attempt = 1
-        done = False
         try:
             while True:
                 try:
                     if not self._sent:
                         raise ConnectionError("write failed")
                     reply = self._read_reply(command, time.monotonic() + policy.timeout)
-                    done = True
                     self.stats.last_round_trip = time.monotonic() - self._t_sent
                     return reply
                 except _NoLine:
-                    self._abandon(command)
                     if attempt >= policy.attempts:
                         raise RobotTimeout(self.name, command.text,
                                            f"no reply within {policy.timeout:g} s on {attempt} attempt(s) "
@@ -191,23 +220,73 @@ class RobotLink:
                                         f"link to {self.url} failed ({exc}) and could not be reopened") from exc2
                 if policy.backoff:
                     time.sleep(policy.backoff)
-                self._buf.clear()
-                self._flush_input()
                 self._sent = self._write(command)
         finally:
-            if not done and self._port is not None and self._sent:
-                self._abandon(command)  # interrupted (Ctrl-C, error): its reply may still come
+            self._pending = None  # its writes stay queued: a late reply to them is recognised as stale
+
+    def transact_until_answered(self, command: P.Command, interval: float, cancelled: threading.Event,
+                                on_error: Optional[Callable[[Exception], None]] = None) -> Optional[P.Reply]:
+        """Send `command` and resend it every `interval` seconds, reopening the link as often as needed, until
+        one of its own writes is answered (the reply is returned) or `cancelled` is set (None is returned).
+
+        For stops that must get through: all resends are writes of this one command, so a late answer to any of
+        them confirms it, however late it comes.  Errors (timeouts, garbage, a dead link) are passed to
+        `on_error` and retried, never raised."""
+        if not interval > 0:
+            raise ValueError(f"interval must be > 0 seconds, got {interval!r}")
+        self.cancel()
+        self._begin(command)
+        written = False
+        try:
+            while not cancelled.is_set():
+                try:
+                    if self._port is None:
+                        self.open()
+                    if written:
+                        self.stats.retries += 1
+                    written = True
+                    if not self._write(command):
+                        raise ConnectionError("write failed")
+                    reply = self._read_reply(command, time.monotonic() + interval)
+                    self.stats.last_round_trip = time.monotonic() - self._t_sent
+                    return reply
+                except _NoLine:
+                    error: Exception = RobotTimeout(self.name, command.text,
+                                                    f"no reply within {interval:g} s ({self.url})")
+                    wait = 0.0
+                except ProtocolError as exc:
+                    error, wait = exc, interval
+                except LinkError as exc:
+                    error, wait = exc, interval
+                except _link_errors() + (ConnectionError,) as exc:
+                    error, wait = LinkError(self.name, command.text, f"link to {self.url} failed: {exc}"), interval
+                    self.close()
+                    self._pending = command
+                if on_error is not None:
+                    on_error(error)
+                if wait:
+                    cancelled.wait(wait)
+            return None
+        finally:
             self._pending = None
 
     # ------------------------------------------------------------------ internals
-    def _abandon(self, command: P.Command) -> None:
-        letter = P.REPLY_LETTER.get(command.letter)
-        if letter is not None:
-            self._stale[letter] = self._stale.get(letter, 0) + 1
+    def _begin(self, command: P.Command) -> None:
+        self._next_id += 1
+        self._pending, self._pending_id = command, self._next_id
+        self.stats.commands += 1
+        self._t_sent = time.monotonic()
 
     def _write(self, command: P.Command) -> bool:
+        """Write one attempt of the pending command; it is queued first, since even a write that raises may
+        have reached the robot."""
         if self._port is None:
             return False
+        last = self._queue[-1] if self._queue else None
+        if last is not None and last.command_id == self._pending_id:
+            last.count += 1
+        else:
+            self._queue.append(_Writes(self._pending_id, P.REPLY_LETTER.get(command.letter), 1))
         try:
             self._port.write(command.encode(self.eol))
             self._port.flush()
@@ -215,12 +294,23 @@ class RobotLink:
         except _link_errors():
             return False
 
-    def _flush_input(self) -> None:
-        try:
-            if self._port is not None:
-                self._port.reset_input_buffer()
-        except _link_errors():
-            pass
+    def _attribute(self, letter: str) -> Optional[int]:
+        """The id of the command whose queued write the reply `letter` answers (None: no queued write fits).
+        The oldest fitting write is consumed and older writes of other letters are popped as lost."""
+        queue = self._queue
+        if letter == P.ERROR_MARK:
+            index = 0 if queue else -1
+        else:
+            index = next((i for i, w in enumerate(queue) if w.letter == letter), -1)
+        if index < 0:
+            return None
+        for _ in range(index):
+            queue.popleft()
+        writes = queue[0]
+        writes.count -= 1
+        if writes.count == 0:
+            queue.popleft()
+        return writes.command_id
 
     def _read_line(self, deadline: float) -> bytes:
         """One line up to and including its "\n" (so "\r\n" too); _NoLine when the deadline passes first."""
@@ -245,24 +335,22 @@ class RobotLink:
                 self._buf.extend(chunk)
 
     def _read_reply(self, command: P.Command, deadline: float) -> P.Reply:
-        expected = P.REPLY_LETTER.get(command.letter)
         while True:
             raw = self._read_line(deadline)
             text = raw.rstrip(b"\r\n")
             if not text:
                 continue  # the empty half of a "\r\n" split across reads, or a bare line end
-            letter = chr(text[0]) if text[0] < 128 else ""
-            if letter != expected and self._stale.get(letter, 0) > 0:
-                # a late reply to an abandoned attempt of another command: check its shape, then drop it
-                stale_cmd = next(c for c, r in P.REPLY_LETTER.items() if r == letter)
-                P.parse_reply(raw, stale_cmd, self.name)
-                self._stale[letter] -= 1
-                self.stats.stale_replies += 1
-                continue
-            return P.parse_reply(raw, command, self.name)
+            letter = P.ERROR_MARK if text == P.ERROR_MARK.encode() else (chr(text[0]) if text[0] < 128 else "")
+            owner = self._attribute(letter)
+            if owner == self._pending_id:
+                return P.parse_reply(raw, command, self.name)
+            if owner is None:  # answers no write on this line: garbage, or a reply to nothing we sent
+                P.parse_reply(raw, command, self.name)  # raises for a wrong letter or a malformed line
+                raise ProtocolError(self.name, command.text, "a reply that no command on this line waits for",
+                                    reply=text.decode("ascii", "replace"))
+            if letter != P.ERROR_MARK:  # a late reply to an abandoned command: check its shape, then drop it
+                P.parse_reply(raw, _COMMAND_OF_REPLY[letter], self.name)
+            self.stats.stale_replies += 1
 
 
-def check_reply_type(reply: P.Reply, kind: type, link: RobotLink, command: P.Command) -> Any:
-    if not isinstance(reply, kind):  # pragma: no cover - parse_reply already guarantees the type
-        raise ProtocolError(link.name, command.text, f"expected a {kind.__name__} reply", reply=str(reply))
-    return reply
+_COMMAND_OF_REPLY = {reply: command for command, reply in P.REPLY_LETTER.items()}

@@ -7,10 +7,11 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any
 
 import numpy as np
 
@@ -112,7 +113,7 @@ def wall_clearance(walls: np.ndarray, x: float, y: float, half: float = 0.0) -> 
     return best, best_i
 
 
-def escaping_direction(walls: np.ndarray, x: float, y: float) -> "float | None":
+def escaping_direction(walls: np.ndarray, x: float, y: float) -> float | None:
     """A direction (rad) in which a ray from (x, y) meets no wall, or None if walls enclose the point."""
     reach = 4.0 * MAX_COORDINATE
     for k in range(_ENCLOSURE_RAYS):
@@ -136,7 +137,7 @@ def _list_of(value: Any, field: str, length: int, min_items: int) -> np.ndarray:
 
 
 def world_from_dict(data: Mapping[str, Any], source: str = "<dict>") -> World:
-    """Validate a map mapping (schema of DESIGN.md) and build a :class:`World`."""
+    """Validate a map mapping (schema in docs/architecture.md) and build a :class:`World`."""
     if not isinstance(data, Mapping):
         raise ValueError(f"map {source}: top level must be a JSON object")
     allowed = {"name", "description", "walls", "home", "pois", "starts"}
@@ -179,7 +180,7 @@ def world_from_dict(data: Mapping[str, Any], source: str = "<dict>") -> World:
     return world
 
 
-def load_map(map_spec: "str | Path | Mapping[str, Any] | World") -> World:
+def load_map(map_spec: str | Path | Mapping[str, Any] | World) -> World:
     """Load a built-in map by name, a map JSON file by path, or validate a mapping."""
     if isinstance(map_spec, World):
         return map_spec
@@ -187,7 +188,7 @@ def load_map(map_spec: "str | Path | Mapping[str, Any] | World") -> World:
         return world_from_dict(map_spec)
     spec = str(map_spec)
     if spec in BUILTIN_MAPS:
-        text = resources.files(__package__).joinpath("data", f"{spec}.json").read_text()
+        text = resources.files(__package__).joinpath("data").joinpath(f"{spec}.json").read_text()
         return world_from_dict(json.loads(text), source=spec)
     if not spec.strip():
         raise ValueError(f"map must be a built-in map {BUILTIN_MAPS} or a JSON file, got an empty path")

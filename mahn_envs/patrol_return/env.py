@@ -6,7 +6,8 @@ core's arrays, so it cannot disagree with the trainer or the RL vector env.
 from __future__ import annotations
 
 import numbers
-from typing import Any, Mapping, Optional, Sequence
+from collections.abc import Mapping, Sequence
+from typing import Any
 
 import numpy as np
 from gymnasium import spaces
@@ -14,8 +15,8 @@ from pettingzoo import ParallelEnv
 from pettingzoo.utils import parallel_to_aec, wrappers
 
 from ..core import TaskParams
-from ..core.params import check_flag
 from ..core import task as T
+from ..core.params import ORIGINAL_MAX_TICKS, ORIGINAL_SIGNAL_TICK, check_flag
 from ..core.rng import check_seed
 from ..engines import make_engine
 from ..khepera import DEFAULT_MODEL, KheperaModel
@@ -99,14 +100,15 @@ class PatrolReturnEnv(ParallelEnv):
     original paper (> 100 iff `solved`).
     """
 
-    metadata = {"name": "patrol_return_v0", "render_modes": ["human", "rgb_array"], "render_fps": 30,
+    metadata: dict[str, Any] = {"name": "patrol_return_v0", "render_modes": ["human", "rgb_array"], "render_fps": 30,
                 "is_parallelizable": True}
 
-    def __init__(self, map: "str | World" = "plus", engine: str = "kinematic", robots_see_each_other: bool = False,
+    def __init__(self, map: str | World = "plus", engine: str = "kinematic", robots_see_each_other: bool = False,
                  robots_collide: bool = False, sensor_noise: float = 0.0, effector_noise: float = 0.0,
                  heading_noise: float = 0.0, start_jitter_xy: float = 0.0, start_jitter_heading: float = 0.0,
-                 max_cycles: int = 1364, signal_tick: int = 690, auto_signal: bool = True, reflex: bool = True,
-                 render_mode: Optional[str] = None, model: KheperaModel = DEFAULT_MODEL) -> None:
+                 max_cycles: int = ORIGINAL_MAX_TICKS, signal_tick: int = ORIGINAL_SIGNAL_TICK,
+                 auto_signal: bool = True, reflex: bool = True,
+                 render_mode: str | None = None, model: KheperaModel = DEFAULT_MODEL) -> None:
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode must be one of {self.metadata['render_modes']} or None, "
                              f"got {render_mode!r}")
@@ -153,7 +155,7 @@ class PatrolReturnEnv(ParallelEnv):
         return self._act_spaces[agent]
 
     # -------------------------------------------------------------- episode
-    def reset(self, seed: Optional[int] = None, options: Optional[dict] = None):
+    def reset(self, seed: int | None = None, options: dict | None = None):
         if seed is not None:
             seed = check_seed(seed, "seed")
             self._seed_rng = np.random.default_rng(seed)
@@ -190,8 +192,8 @@ class PatrolReturnEnv(ParallelEnv):
     def step(self, actions: dict):
         if not self.agents:
             raise RuntimeError("step() called on a finished episode; call reset() first")
-        for agent, a in zip(self.agents, coerce_actions(actions, self.agents, self.possible_agents)):
-            self._actions[self.agent_index[agent]] = a
+        for agent, action in zip(self.agents, coerce_actions(actions, self.agents, self.possible_agents)):
+            self._actions[self.agent_index[agent]] = action
         obs, reward, solved = self.engine.step(self._actions)
         done = self.sim.tick >= self.max_cycles
         observations = {a: obs[k].copy() for k, a in enumerate(self.agents)}
@@ -217,7 +219,7 @@ class PatrolReturnEnv(ParallelEnv):
     def clear_signal(self, agent: str) -> None:
         self.sim.give_signal(0, self.agent_index[agent], False)
 
-    def place(self, agent: str, pose: "tuple[float, float, float]") -> np.ndarray:
+    def place(self, agent: str, pose: tuple[float, float, float]) -> np.ndarray:
         """Move one robot by hand mid-episode (operator protocols); returns its fresh observation."""
         k = self.agent_index[agent]
         poses = self.sim.pose[0:1, :, :3].copy()

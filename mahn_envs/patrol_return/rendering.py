@@ -7,7 +7,6 @@ from __future__ import annotations
 
 import math
 import os
-from typing import Optional
 
 import numpy as np
 
@@ -39,7 +38,7 @@ class Renderer:
             pygame.init()
         else:  # off-screen drawing needs no display (works headless without SDL_VIDEODRIVER tricks)
             pygame.font.init()
-        self.window: Optional["pygame.Surface"] = None
+        self.window: pygame.Surface | None = None
         self.clock = None
         if mode == "human":
             self.window = pygame.display.set_mode((self.w, self.h))
@@ -51,7 +50,7 @@ class Renderer:
     def to_px(self, x: float, y: float) -> tuple[int, int]:
         return int(round((x - self.xmin) * self.scale)), int(round((self.ymax - y) * self.scale))
 
-    def draw(self, poses: np.ndarray, rays: Optional[np.ndarray], signals: np.ndarray, angles: np.ndarray,
+    def draw(self, poses: np.ndarray, rays: np.ndarray | None, signals: np.ndarray, angles: np.ndarray,
              radius: float, tick: int, fitness: float) -> None:
         pg = self.pygame
         s = self.surface
@@ -89,7 +88,7 @@ class Renderer:
         return np.transpose(self.pygame.surfarray.array3d(self.surface), (1, 0, 2)).astype(np.uint8).copy()
 
     def show(self) -> None:
-        if self.window is None:
+        if self.window is None or self.clock is None:
             return
         self.pygame.event.pump()
         self.window.blit(self.surface, (0, 0))
@@ -102,7 +101,7 @@ class Renderer:
             self.window = None
 
 
-def render_env(env, poses: np.ndarray, rays: Optional[np.ndarray], signals: np.ndarray, tick: int,
+def render_env(env, poses: np.ndarray, rays: np.ndarray | None, signals: np.ndarray, tick: int,
                fitness: float):
     """The `render()` of every env of the task (simulated or hardware): one picture, one code path.
 

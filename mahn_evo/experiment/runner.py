@@ -29,7 +29,7 @@ def run_experiment(plan: ExperimentPlan, out: "str | Path", backend: str = "loca
         return _run(plan, out, backend, workers, address, analyse, log)
 
 
-def _run(plan: ExperimentPlan, out: Path, backend: str, workers: int, address: Optional[str], analyse: bool,
+def _run(plan: ExperimentPlan, out: Path, backend: str, workers: int, address: str | None, analyse: bool,
          log: Callable[[str], None]) -> dict[str, Any]:
     plan.save_or_check(out)
     tasks = [(folder.name, plan.train_config(mode, seed).to_dict(), str(folder))

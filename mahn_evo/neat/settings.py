@@ -1,7 +1,7 @@
 """Every NEAT parameter in one validated, immutable record.
 
 The defaults are the values of the original IROS 2011 system (HyperSharpNEAT, i.e. SharpNEAT 1.0 with changes;
-see ``reference/iros2011-original-system.md`` section 8).  Keeping them in one frozen dataclass means a run's
+see ``docs/original-system.md`` section 8).  Keeping them in one frozen dataclass means a run's
 configuration can be written to JSON, compared and restored exactly, and a typo in a configuration file fails
 loudly (``from_mapping`` rejects unknown keys) instead of silently running with a default.
 """

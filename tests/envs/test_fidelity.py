@@ -1,4 +1,4 @@
-"""The core against the original system's reference numbers (shared/reference/iros2011-original-system.md)."""
+"""The core against the original system's reference numbers (docs/original-system.md, appendix)."""
 import numpy as np
 import pytest
 

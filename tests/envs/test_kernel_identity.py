@@ -10,8 +10,7 @@ import numpy as np
 import pytest
 from numba import njit
 
-from mahn_envs.core import BatchSim, TaskParams
-from mahn_envs.core import kernels
+from mahn_envs.core import BatchSim, TaskParams, kernels
 from mahn_envs.core.controller import _sigmoid, network_action, transposed, winner_take_all
 from mahn_envs.core.geometry import cast_rays, ray_circle, ray_wall, sensor_directions, wall_boxes
 from mahn_envs.maps import load_map

@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 
 from mahn_envs import load_map, patrol_return_v0
+from mahn_envs.core.params import ORIGINAL_MAX_TICKS
 from mahn_envs.scripted import run_scripted_episode
 
 
@@ -47,7 +48,7 @@ def test_custom_map_file(tmp_path):
 
 
 def _trajectory(engine, seed, scripted=False, **kw):
-    env = patrol_return_v0.parallel_env(engine=engine, max_cycles=1364, **kw)
+    env = patrol_return_v0.parallel_env(engine=engine, max_cycles=ORIGINAL_MAX_TICKS, **kw)
     if scripted:
         _, _, poses = run_scripted_episode(env, seed=seed)
         return poses, env.sim.prev_fit[0]

@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from hypothesis import given, settings, strategies as st
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from mahn_evo.cppn import activations as A
 from mahn_evo.cppn import compile_cppn
@@ -13,7 +14,8 @@ from tests.evo.helpers import random_genome
 
 
 # ----------------------------------------------------------------------------------------------------------------
-# Reference: the sheet's recursive activation, one query at a time, written independently of the plan compiler.
+# Reference: the original's recursive activation (docs/original-system.md section 6), one query at a time,
+# written independently of the plan compiler.
 def _act(name: str, x, dtype):
     return A.ACTIVATIONS[name][1](np.array([x], dtype=dtype))[0]
 

@@ -6,7 +6,8 @@ import json
 
 import numpy as np
 import pytest
-from hypothesis import given, settings, strategies as st
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from mahn_evo.neat import (
     Genome,
@@ -43,7 +44,7 @@ def test_seed_genome_switch_structure():
     assert w[(1, 352)] == 0.0 and w[(3, 358)] == 0.0
     for s in (0, 2, 4, 6, 354, 360):
         assert w[(s, 7)] == 0.0 and w[(s, 8)] == 0.0
-    assert g._info.sources.size == 12  # add-connection candidates, as in the sheet
+    assert g._info.sources.size == 12  # add-connection candidates, as in docs/original-system.md section 8
     assert sorted(g._info.targets.tolist()) == [7, 8, 609]
 
 

@@ -26,7 +26,7 @@ def test_later_fields_are_omitted_at_their_defaults():
     d = NeatSettings().to_dict()
     assert not LATER_FIELDS & set(d)
     s = NeatSettings(crossover_mutation_probability=0.8, population_stagnation_generations=20,
-                     weight_difference_mean=True)
+                     weight_difference_mean=True, species_order="random", stagnation_rule="sticky")
     back = NeatSettings.from_mapping(json.loads(json.dumps(s.to_dict())))
     assert back == s and LATER_FIELDS <= set(s.to_dict())
     with pytest.raises(ValueError, match="crossover_mutation_probability"):

@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from hypothesis import given, settings, strategies as st
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from mahn_evo.neat import Genome, NeatSettings, Species, ThresholdController, compatibility_distance
 from mahn_evo.neat.reproduction import apportion, elite_sizes, target_sizes

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import threading
+import warnings
 
 import pytest
 
@@ -49,16 +50,22 @@ def make_env(make_emulator, vclock):
 
     yield make
     for env in envs:
-        env.close()
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # a test that leaves a robot silent has checked its warning already
+            env.close()
+        env.give_up_stops()  # a robot left silent on purpose: stop resending its stop
 
 
 @pytest.fixture(autouse=True)
 def no_leaked_threads():
     before = set(threading.enumerate())
     yield
+    for t in threading.enumerate():
+        if t not in before and t.name.startswith("khepera-stop"):
+            t.join(2.0)  # a confirmed stop's thread may still be closing its link (pyserial waits 0.3 s)
     leaked = [t.name for t in threading.enumerate() if t not in before and t.is_alive()
-              and t.name.startswith("khepera-emulator")]
-    assert not leaked, f"emulator threads left running: {leaked}"
+              and t.name.startswith(("khepera-emulator", "khepera-stop"))]
+    assert not leaked, f"emulator or stop threads left running: {leaked}"
 
 
 def last_command(emu: KheperaEmulator, robot: int) -> str:

@@ -6,8 +6,13 @@ import math
 import numpy as np
 import pytest
 
-from mahn_envs.hardware.calibration import (LinearCalibration, LogCalibration, TableCalibration, make_calibration,
-                                            relative_noise)
+from mahn_envs.hardware.calibration import (
+    LinearCalibration,
+    LogCalibration,
+    TableCalibration,
+    make_calibration,
+    relative_noise,
+)
 
 
 def test_paper_formula_values():

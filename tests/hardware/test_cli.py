@@ -13,7 +13,8 @@ from pathlib import Path
 import pytest
 
 from mahn_envs.cli import main as envs_main
-from mahn_evo.deploy import add_deploy_parser, main as deploy_main
+from mahn_evo.deploy import add_deploy_parser
+from mahn_evo.deploy import main as deploy_main
 
 from ..envs.helpers import random_team
 
@@ -89,3 +90,25 @@ def test_emulate_in_process_with_duration(capsys):
                       "--fault", "0:drop:2:N"]) == 0
     out = capsys.readouterr().out
     assert "robot_1: socket://127.0.0.1:" in out and "robot_0: (" in out and "emulator stopped" in out
+
+
+def test_deploy_without_a_terminal_names_placement_none_and_leaves_no_empty_log(tmp_path, capsys, monkeypatch,
+                                                                                 make_emulator):
+    import io
+
+    emu = make_emulator()
+    monkeypatch.setattr("sys.stdin", io.StringIO(""))  # no terminal: input() meets the end of stdin
+    log = tmp_path / "robots.csv"
+    code = deploy_main(["deploy", str(_champion(tmp_path)), "--ports", *emu.ports, "--log", str(log)])
+    err = capsys.readouterr().err
+    assert code == 1 and "--placement none" in err and "Traceback" not in err
+    assert not log.exists()  # no empty CSV left behind
+    assert all(emu.world.stopped(k) for k in range(3)) and all(c[-1] == "D,l0,l0" for c in map(emu.commands, range(3)))
+    # with the emulator the default is no prompt (it places its robots); asking for one still asks
+    log2 = tmp_path / "emu.csv"
+    assert deploy_main(["deploy", str(_champion(tmp_path)), "--emulate", "--max-cycles", "5", "--time-scale", "3",
+                        "--log", str(log2)]) == 0 and log2.exists()
+    log3 = tmp_path / "emu-prompt.csv"
+    assert deploy_main(["deploy", str(_champion(tmp_path)), "--emulate", "--placement", "prompt",
+                        "--max-cycles", "5", "--log", str(log3)]) == 1
+    assert "--placement none" in capsys.readouterr().err and not log3.exists()

@@ -20,8 +20,8 @@ from mahn_envs.hardware import protocol as P
 from mahn_envs.scripted import WaypointTeam
 from mahn_evo.deploy import LOG_HEADER, deploy
 
-from .conftest import last_command
 from ..envs.helpers import random_team
+from .conftest import last_command
 
 pytestmark = pytest.mark.timeout(120)
 

@@ -41,13 +41,14 @@ def test_a_robot_that_stops_answering_stops_the_team(make_env):
     _drive(env)
     emu.inject(1, "drop", count=None)  # robot_1 goes silent for good
     t0 = time.monotonic()
-    with pytest.raises(RobotTimeout) as info, pytest.warns(UserWarning, match="could not stop.*robot_1"):
+    with pytest.raises(RobotTimeout) as info, pytest.warns(UserWarning, match="stop not confirmed.*robot_1"):
         _drive(env)
     assert time.monotonic() - t0 < 5.0  # bounded: attempts x timeout, plus the stop attempts
     assert info.value.robot == "robot_1"
     assert _all_stopped(emu, (0, 2))  # the robots that answer were stopped ...
     assert env.last_stop_report["robot_0"] is None and env.last_stop_report["robot_2"] is None
-    assert "RobotTimeout" in env.last_stop_report["robot_1"]  # ... and the silent one was tried
+    assert env.last_stop_report["robot_1"].startswith("unconfirmed: RobotTimeout")  # ... the silent one was tried
+    assert env.unconfirmed_stops == ["robot_1"]  # and is still being tried
     assert emu.commands(1)[-1] == "D,l0,l0"
     assert env.agents == []
 
@@ -116,7 +117,7 @@ def test_a_lost_link_stops_the_others(make_env):
     env.reset()
     _drive(env)
     emu.inject(0, "disconnect", count=None)
-    with pytest.raises(LinkError) as info, pytest.warns(UserWarning, match="could not stop.*robot_0"):
+    with pytest.raises(LinkError) as info, pytest.warns(UserWarning, match="stop not confirmed.*robot_0"):
         _drive(env)
     assert info.value.robot == "robot_0"
     assert _all_stopped(emu, (1, 2))

@@ -5,7 +5,7 @@ import pytest
 
 from mahn_envs.hardware import protocol as P
 from mahn_envs.hardware.errors import ProtocolError
-from mahn_envs.hardware.kinematics import Drive, SPEED_UNIT_V3
+from mahn_envs.hardware.kinematics import SPEED_UNIT_V3, Drive
 from mahn_envs.hardware.reflex import Motion
 
 N_LINE = "n,31,210,1120,3910,4000,640,58,22,17,911,905,1234567"
@@ -28,7 +28,8 @@ def test_set_speed_rejects_non_int32(bad):
 
 
 def test_original_deployment_commands_are_reproduced():
-    """The original sent D,l15049,l15049 forward and D,l15049,l-15049 to turn right (section 10)."""
+    """The original sent D,l15049,l15049 forward and D,l15049,l-15049 to turn right (docs/original-system.md
+    section 10)."""
     v = 15049 / SPEED_UNIT_V3 / 10.0  # cm/s of 15049 firmware units
     drive = Drive(forward_speed=v, turn_rate=2 * v / 8.85, wheel_base=8.85)
     assert drive.units(Motion.FORWARD, SPEED_UNIT_V3) == (15049, 15049)

@@ -8,7 +8,7 @@ from mahn_envs import load_map
 from mahn_envs.policy import ControllerPolicy
 from mahn_envs.scripted import WaypointTeam
 from mahn_evo.cli import main
-from mahn_evo.protocols import SequentialSettings, sequential, sequential_episode
+from mahn_evo.protocols import SequentialSettings, sequential, sequential_episode, sequential_summary
 
 AGENTS = ["robot_0", "robot_1", "robot_2"]
 
@@ -38,6 +38,11 @@ def test_a_team_that_never_patrols_fails():
     assert not res.success and res.stages_completed < 9
     out = sequential(AlwaysForward(), episodes=2, settings=SequentialSettings(return_ticks=200, out_ticks=200))
     assert out["solved"] == [False, False] and len(out["fitness"]) == 2
+    # the text `mahn-evo eval --protocol sequential` prints counts stages out of 9 and says what a stage is
+    text = sequential_summary(out, "plus")
+    for e, ep in enumerate(out["episodes"]):
+        assert f"episode {e}: fail, {ep['stages_completed']}/9 stages" in text
+    assert "3 per robot" in text and "came home when called" in text and "went back out" in text
 
 
 def test_situational_controller_restarts_patrol_brain_when_signal_cleared():

@@ -1,4 +1,4 @@
-"""CPPN -> substrate decoding against the original's rules (section 6 of the reference sheet)."""
+"""CPPN -> substrate decoding against the original's rules (docs/original-system.md section 6)."""
 import numpy as np
 import pytest
 

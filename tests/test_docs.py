@@ -1,0 +1,92 @@
+"""The docs stay true to the repository: citations point inside it, and docs/architecture.md names every module
+that exists and nothing that does not (so a move or a new module shows up here until the page is updated)."""
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+PACKAGES = ("mahn_envs", "mahn_evo", "baselines")
+TEXT_SUFFIXES = {".py", ".md", ".toml"}
+
+
+def _repo_text_files() -> list[Path]:
+    skip = {".git", "runs", "build", "dist", ".pytest_cache", ".hypothesis", "__pycache__"}
+    out = []
+    for p in ROOT.rglob("*"):
+        if p.is_file() and p.suffix in TEXT_SUFFIXES and not (set(p.relative_to(ROOT).parts) & skip):
+            out.append(p)
+    return out
+
+
+def _citations_outside_the_repo(text: str) -> list[str]:
+    return re.findall(r"shared/reference\S*|\breference/[\w-]+\.md|\bDESIGN\.md", text)
+
+
+def test_no_citation_points_outside_the_repository():
+    bad = {}
+    for p in _repo_text_files():
+        if p.resolve() == Path(__file__).resolve():
+            continue
+        found = _citations_outside_the_repo(p.read_text(errors="replace"))
+        if found:
+            bad[str(p.relative_to(ROOT))] = found
+    assert bad == {}, "cite docs/original-system.md or docs/architecture.md instead"
+
+
+def test_the_citation_check_finds_old_citations():
+    assert _citations_outside_the_repo("see shared/reference/khepera3.md and DESIGN.md") == [
+        "shared/reference/khepera3.md", "DESIGN.md"]
+    assert _citations_outside_the_repo("(reference/iros2011-original-system.md)") == [
+        "reference/iros2011-original-system.md"]
+    assert _citations_outside_the_repo("docs/original-system.md section 6") == []
+
+
+def _modules() -> set[str]:
+    """Every module of the packages as a repo-relative path; a package's own __init__.py is only a marker."""
+    return {p.relative_to(ROOT).as_posix() for pkg in PACKAGES for p in (ROOT / pkg).rglob("*.py")
+            if p.name != "__main__.py" and p.relative_to(ROOT).as_posix() != f"{pkg}/__init__.py"}
+
+
+def _architecture_tables() -> dict[str, str]:
+    """Module-map rows of docs/architecture.md: the first cell's backticked names, resolved against the table's
+    package heading (### `mahn_envs` ...)."""
+    text = (ROOT / "docs" / "architecture.md").read_text()
+    section = text.split("## Module map", 1)[1].split("\n## ", 1)[0]
+    rows: dict[str, str] = {}
+    pkg = None
+    for line in section.splitlines():
+        m = re.match(r"### `([\w/]+)`", line)
+        if m:
+            pkg = m.group(1)
+            continue
+        if pkg and line.startswith("| `"):
+            first = line.split("|")[1]
+            for name in re.findall(r"`([^`]+)`", first):
+                rows[f"{pkg}/{name}"] = line
+    return rows
+
+
+def _covered(module: str, named: set[str]) -> bool:
+    """Named itself, or inside a folder row (`engines/`), or a subpackage's __init__.py whose folder has rows."""
+    folder = module.rsplit("/", 1)[0] + "/"
+    if module in named or any(module.startswith(n) for n in named if n.endswith("/")):
+        return True
+    return module.endswith("/__init__.py") and any(n.startswith(folder) for n in named)
+
+
+def test_architecture_module_map_matches_the_code():
+    named = set(_architecture_tables())
+    missing = {m for m in _modules() if not _covered(m, named)}
+    assert missing == set(), "modules docs/architecture.md does not mention in its module map"
+    stale = {n for n in named if not (ROOT / n).exists()}
+    assert stale == set(), "docs/architecture.md names modules that do not exist"
+
+
+def test_architecture_folder_rows_name_every_module_inside():
+    for name, row in _architecture_tables().items():
+        if not name.endswith("/") or name == "mahn_envs/hardware/":
+            continue  # hardware has a table of its own
+        for p in (ROOT / name).glob("*.py"):
+            if p.name != "__init__.py":
+                assert f"`{p.name}`" in row, f"{name} row does not mention {p.name}"
