@@ -16,6 +16,8 @@ from typing import Any, Optional, Sequence
 
 import numpy as np
 
+from mahn_evo.files import read_json_object
+
 from .io import read_csv, read_json, write_csv, write_json
 
 ROBOTS = 3
@@ -82,7 +84,7 @@ def evo_curve(run_dir: "str | Path", ticks: int = TICKS, robots: int = ROBOTS) -
     if missing:
         raise ValueError(f"{run_dir}/log.csv lacks column(s) {sorted(missing)}")
     summary_path = run_dir / "summary.json"
-    summary = read_json(summary_path) if summary_path.exists() else {}
+    summary = read_json_object(summary_path, "summary") if summary_path.exists() else {}  # names a bad file
     mode = summary.get("mode", "unknown")
     b, f, s = _best_so_far([float(r["evaluations"]) * ticks * robots for r in rows],
                            [float(r["best_fitness"]) for r in rows], [_truthy(r["solved"]) for r in rows])

@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import Any, Sequence
 
 from mahn_envs.core.params import TaskParams
+from mahn_envs.maps import load_map
 
 from .algos import get_algo, resolved_hyperparams
 from .io import write_csv, write_json
@@ -46,6 +47,15 @@ class TrainConfig:
         if self.steps < 1:
             raise ValueError(f"steps must be positive, got {self.steps}")
         self.eval_maps = list(self.eval_maps)
+
+    def check_budget(self) -> None:
+        """A run must end at least one episode in every slot, or its "best" model is the untrained policy.
+        (Checked when training starts, not on loading, so older short runs stay readable.)"""
+        slots = self.n_episodes * load_map(self.map).n_robots
+        if self.steps < self.max_cycles * slots:
+            raise ValueError(f"steps ({self.steps}) must cover at least one full episode per slot: max_cycles x "
+                             f"n_episodes x robots = {self.max_cycles} x {self.n_episodes} x {slots // self.n_episodes}"
+                             f" = {self.max_cycles * slots} robot-steps")
 
     @property
     def task_params(self) -> TaskParams:
@@ -142,6 +152,7 @@ def train(cfg: TrainConfig, out: "str | Path", progress: bool = False) -> dict[s
     """Train, evaluate along the way, save models and write the run's files; returns the summary."""
     import torch
 
+    cfg.check_budget()
     register_with_sb3()
     torch.set_num_threads(max(1, cfg.torch_threads))
     out = Path(out)

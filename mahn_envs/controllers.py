@@ -97,8 +97,13 @@ class TeamControllers:
         missing = [f for f in _FIELDS if f not in data]
         if missing:
             raise ValueError(f"controllers: missing field(s) {missing}")
-        try:
-            arrays = [np.asarray(data[f], dtype=np.float32) for f in _FIELDS]
-        except (TypeError, ValueError) as exc:
-            raise ValueError(f"controllers: arrays are not numeric ({exc})") from exc
+        arrays = []
+        for f in _FIELDS:
+            try:
+                raw = np.asarray(data[f])
+            except (TypeError, ValueError) as exc:
+                raise ValueError(f"controllers: field {f!r} is not a regular array of numbers ({exc})") from exc
+            if raw.dtype.kind not in "iuf":  # np.float32("1.5") would silently accept a string
+                raise TypeError(f"controllers: field {f!r} must hold numbers, got {raw.dtype.name} values")
+            arrays.append(raw.astype(np.float32))
         return cls(*arrays)

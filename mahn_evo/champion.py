@@ -10,10 +10,14 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
+from mahn_envs.controllers import _FIELDS as CONTROLLER_FIELDS
 from mahn_envs.controllers import TeamControllers
 
 from .files import atomic_write_json, read_versioned_json, versioned
 from .neat.genome import Genome
+from .substrate import MODES
 
 KIND = "champion"
 
@@ -40,11 +44,63 @@ class Champion:
 
     @classmethod
     def load(cls, path: str | Path) -> Champion:
+        """Read a champion file; a field that is missing, of the wrong type, an unknown mode, or controllers that
+        are not what the file's CPPN decodes to are a ValueError naming the file."""
         data = read_versioned_json(path, KIND)
+        where = f"champion file {str(path)!r}"
+        if data.get("mode") not in MODES:
+            raise ValueError(f"{where}: field 'mode' must be one of {MODES}, got {data.get('mode')!r}")
         try:
-            return cls(mode=data["mode"], fitness=float(data["fitness"]), solved=bool(data["solved"]),
-                       generation=int(data["generation"]), genome=Genome.from_dict(data["cppn"]),
-                       controllers=TeamControllers.from_dict(data["controllers"]), seed=data.get("seed"),
-                       map=data.get("map", "plus"))
-        except (KeyError, TypeError) as exc:
-            raise ValueError(f"champion file {str(path)!r} is missing or has a malformed field: {exc}") from exc
+            champ = cls(mode=data["mode"], fitness=_number(data["fitness"], "fitness"),
+                        solved=_flag(data["solved"], "solved"), generation=_count(data["generation"], "generation"),
+                        genome=Genome.from_dict(data["cppn"]),
+                        controllers=TeamControllers.from_dict(data["controllers"]), seed=data.get("seed"),
+                        map=data.get("map", "plus"))
+        except (KeyError, TypeError, ValueError, AttributeError, IndexError) as exc:
+            raise ValueError(f"{where} is missing or has a malformed field: {exc}") from exc
+        _check_controllers_match_cppn(champ, where)
+        return champ
+
+
+def _number(value: Any, field: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise TypeError(f"field {field!r} must be a number, got {value!r}")
+    return float(value)
+
+
+def _flag(value: Any, field: str) -> bool:
+    if not isinstance(value, bool):
+        raise TypeError(f"field {field!r} must be true or false, got {value!r}")
+    return value
+
+
+def _count(value: Any, field: str) -> int:
+    if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+        raise TypeError(f"field {field!r} must be a non-negative integer, got {value!r}")
+    return value
+
+
+#: the ways a run may have decoded its CPPNs (activation, evaluate_modules); a champion file does not say which
+DECODINGS = (("recursive", True), ("recursive", False), ("relax", True))
+
+
+def _check_controllers_match_cppn(champ: Champion, where: str) -> None:
+    """The stored controllers must be what the CPPN decodes to under one of the run settings that decide decoding
+    (DECODINGS), or the file mixes two teams or was edited."""
+    from .cppn import compile_genome
+    from .substrate import decode_population
+
+    ctrl = champ.controllers
+    if ctrl.batched or ctrl.mode != champ.mode:
+        raise ValueError(f"{where}: its controllers are a {ctrl.mode} team{' batch' if ctrl.batched else ''}, but "
+                         f"field 'mode' says {champ.mode!r}")
+    for activation, modules in DECODINGS:
+        try:
+            decoded = decode_population([compile_genome(champ.genome, activation, modules)], champ.mode,
+                                        ctrl.n_robots).team(0)
+        except (ValueError, IndexError, KeyError) as exc:
+            raise ValueError(f"{where}: its CPPN cannot be decoded for mode {champ.mode!r} ({exc})") from exc
+        if all(np.array_equal(getattr(decoded, f), getattr(ctrl, f)) for f in CONTROLLER_FIELDS):
+            return
+    raise ValueError(f"{where}: field 'controllers' does not match what field 'cppn' decodes to (the file was "
+                     "edited, or mixes two teams)")

@@ -56,6 +56,7 @@ def _train_parser(sub) -> None:
     p.add_argument("--config", type=Path, help="TOML or JSON file with TrainConfig fields (flags override it)")
     p.add_argument("--out", type=Path, default=Path("runs/latest"), help="run folder (default runs/latest)")
     p.add_argument("--resume", action="store_true", help="continue the run in --out from its checkpoint")
+    p.add_argument("--overwrite", action="store_true", help="remove the run --out holds before starting")
     p.add_argument("--gif", action="store_true", help="also render the champion's episode to champion.gif")
     p.add_argument("--quiet", action="store_true", help="no progress display")
 
@@ -268,7 +269,13 @@ def cmd_train(args) -> int:
     config = base.with_overrides(**overrides)
     if args.noise is not None:
         config = config.with_noise(args.noise)
-    trainer = Trainer(config, args.out, resume=args.resume)
+    from .folder_lock import folder_lock
+
+    with folder_lock(args.out, "run folder"):
+        return _run_training(args, Trainer(config, args.out, resume=args.resume, overwrite=args.overwrite), config)
+
+
+def _run_training(args, trainer, config: TrainConfig) -> int:
     prog, on_gen = _progress_printer(args.quiet, config.generations)
     try:
         if prog is not None:
@@ -396,7 +403,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         if args.command == "screen":
             return cmd_screen(args)
         return int(args.func(args) or 0)
-    except (ValueError, RuntimeError) as exc:
+    except (ValueError, TypeError, RuntimeError, OSError) as exc:  # OSError: an unwritable or missing path, a full disk
         print(f"mahn-evo: error: {exc}", file=sys.stderr)
         return 2
 

@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import Any
 
 from mahn_envs.core import TaskParams
+from mahn_envs.core.rng import check_seed
 
 from .cppn import CPPN_ACTIVATIONS
 from .evaluator import AGGREGATES, NOISE_DRAWS
@@ -80,8 +81,9 @@ class TrainConfig:
                 raise ValueError(f"{name} must be a positive integer, got {v!r}")
         if isinstance(self.after_solved, bool) or not isinstance(self.after_solved, int) or self.after_solved < 0:
             raise ValueError(f"after_solved must be a non-negative integer, got {self.after_solved!r}")
-        if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
-            raise ValueError(f"seed must be a non-negative integer, got {self.seed!r}")
+        if not isinstance(self.seed, int):  # not numpy ints either: the config is saved as JSON
+            raise TypeError(f"seed must be an integer in [0, 2**64), got {self.seed!r}")
+        check_seed(self.seed, "seed")
 
     @property
     def n_cppn_inputs(self) -> int:
@@ -144,15 +146,20 @@ def load_config_file(path: str | Path, base: TrainConfig | None = None) -> Train
     p = Path(path)
     if not p.exists():
         raise ValueError(f"config file {str(p)!r} does not exist")
-    text = p.read_text()
+    if p.is_dir():
+        raise ValueError(f"config file {str(p)!r} is a folder, not a file")
+    try:
+        text = p.read_text(encoding="utf-8")
+    except UnicodeDecodeError as exc:
+        raise ValueError(f"config file {str(p)!r} is not UTF-8 text ({exc})") from exc
     try:
         data = tomllib.loads(text) if p.suffix == ".toml" else json.loads(text)
-    except (tomllib.TOMLDecodeError, json.JSONDecodeError) as exc:
-        raise ValueError(f"config file {str(p)!r} is not valid {p.suffix[1:].upper() or 'JSON'}: {exc}") from exc
+    except (tomllib.TOMLDecodeError, json.JSONDecodeError, RecursionError) as exc:
+        raise ValueError(f"config file {str(p)!r} is not valid {p.suffix[1:].upper() or 'JSON'}: {exc!r}") from exc
+    if not isinstance(data, dict):
+        raise ValueError(f"config file {str(p)!r} must hold a table (JSON object) of TrainConfig fields")
     if base is None:
         return TrainConfig.from_mapping(data)
-    if not isinstance(data, dict):
-        raise ValueError(f"config file {str(p)!r} must hold a table of TrainConfig fields")
     merged = {**base.to_dict(), **data}
     for table in ("neat", "task"):
         if table in data:

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import csv
 import functools
+import hashlib
 import io
 import json
 import math
@@ -17,6 +18,9 @@ from pathlib import Path
 from typing import Any
 
 FORMAT_VERSION = 1
+
+#: key of the content checksum in files that carry one (checkpoints): sha256 of the canonical JSON of the rest
+CHECKSUM_KEY = "sha256"
 
 
 @functools.lru_cache(maxsize=1)
@@ -69,14 +73,21 @@ def atomic_write_csv(path: str | Path, header: Sequence[str], rows: Iterable[Seq
 
 
 def read_json_object(path: str | Path, what: str) -> dict[str, Any]:
-    """A JSON object from a file; a missing file, corrupt JSON or another top level is a ValueError naming it."""
+    """A JSON object from a file; a missing file, a folder, undecodable or corrupt JSON or another top level is a
+    ValueError naming it."""
     path = Path(path)
     if not path.exists():
         raise ValueError(f"{what} file {str(path)!r} does not exist")
+    if path.is_dir():
+        raise ValueError(f"{what} file {str(path)!r} is a folder, not a file")
     try:
         data = json.loads(path.read_text(encoding="utf-8"))
+    except UnicodeDecodeError as exc:
+        raise ValueError(f"{what} file {str(path)!r} is not UTF-8 text ({exc})") from exc
     except json.JSONDecodeError as exc:
         raise ValueError(f"{what} file {str(path)!r} is corrupt (not valid JSON: {exc})") from exc
+    except RecursionError as exc:
+        raise ValueError(f"{what} file {str(path)!r} is nested too deeply to be a {what} file") from exc
     if not isinstance(data, dict):
         raise ValueError(f"{what} file {str(path)!r} must hold a JSON object")
     return data
@@ -99,3 +110,65 @@ def check_versioned(data: dict[str, Any], path: str | Path, kind: str) -> dict[s
 
 def versioned(kind: str, payload: Mapping[str, Any]) -> dict[str, Any]:
     return {"kind": kind, "version": FORMAT_VERSION, **payload}
+
+
+def canonical_json(payload: Mapping[str, Any]) -> str:
+    """The one text of a JSON document that its checksum covers: sorted keys, no spaces, ASCII.  Parsing it and
+    writing it again gives the same text (Python floats round-trip exactly), so a reader can recompute it."""
+    return json.dumps(payload, separators=(",", ":"), sort_keys=True, allow_nan=False, default=_jsonable)
+
+
+def _sha256(text: str) -> str:
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()
+
+
+def atomic_write_checked_json(path: str | Path, kind: str, payload: Mapping[str, Any]) -> None:
+    """A versioned machine file whose content carries its sha256, so one changed digit is caught on reading.
+
+    The payload is serialised once (canonically) and the header spliced in front: the checksum costs one
+    hash of the text, not a second serialisation.
+    """
+    reserved = {"kind", "version", CHECKSUM_KEY} & set(payload)
+    if reserved:
+        raise ValueError(f"{kind} payload must not use the reserved key(s) {sorted(reserved)}")
+    body = canonical_json(payload)
+    head = json.dumps({"kind": kind, "version": FORMAT_VERSION, CHECKSUM_KEY: _sha256(body)},
+                      separators=(",", ":"))
+    atomic_write_text(path, head[:-1] + ("}" if body == "{}" else "," + body[1:]) + "\n")
+
+
+def read_checked_json(path: str | Path, kind: str) -> dict[str, Any]:
+    """Load a file written by atomic_write_checked_json; a content that does not match its checksum is a
+    ValueError naming the file.  Files written before checksums existed (no CHECKSUM_KEY) are accepted."""
+    data = read_versioned_json(path, kind)
+    expected = data.pop(CHECKSUM_KEY, None)
+    if expected is None:
+        return data
+    payload = {k: v for k, v in data.items() if k not in ("kind", "version")}
+    try:
+        actual = _sha256(canonical_json(payload))
+    except (TypeError, ValueError) as exc:  # e.g. NaN written by hand
+        raise ValueError(f"{kind} file {str(path)!r} is damaged: its content cannot be checked ({exc})") from exc
+    if actual != expected:
+        raise ValueError(f"{kind} file {str(path)!r} is damaged: its content does not match its {CHECKSUM_KEY} "
+                         "checksum (edited by hand or corrupted on disk); restore it from a backup, or start the run "
+                         "again")
+    return data
+
+
+#: the temporary files of atomic_write_text: ".<name>.<random>.tmp"
+_TEMP_GLOB = ".*.tmp"
+
+
+def remove_stray_temp_files(folder: str | Path) -> list[Path]:
+    """Delete the temporary files that atomic writes leave when a process is killed mid-write (the file they
+    were replacing is intact).  Call only while no other process writes into `folder`."""
+    folder = Path(folder)
+    if not folder.is_dir():
+        return []
+    removed = []
+    for p in folder.rglob(_TEMP_GLOB):
+        if p.is_file() and p.name.count(".") >= 3:
+            p.unlink(missing_ok=True)
+            removed.append(p)
+    return removed

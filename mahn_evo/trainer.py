@@ -3,13 +3,17 @@
 Run folder:
   config.json      the resolved TrainConfig
   log.csv          one row per generation (fitness, species, solved, evaluations, seconds)
-  checkpoint.json  full NEAT state + trainer state after the last finished generation (atomic); --resume
+  checkpoint.json  full NEAT state + trainer state after the last finished generation (atomic, with the sha256
+                   of its content: a changed digit is refused, not resumed as another run); --resume
                    continues from it bit-identically
   champion.json    best team so far (CPPN + decoded controllers)
   archive/         every solved champion that improved on the last archived one (the generalisation test
                    picks among all solutions a run found)
   summary.json     mode, seed, generations, best_fitness, solved, first_solved_generation, wall time
   fitness.png      the fitness curve
+
+A fresh run refuses a folder that holds another run (--overwrite removes it first); `mahn-evo train` and each
+experiment worker hold the folder's lock (folder_lock.py) while they write.
 """
 from __future__ import annotations
 
@@ -23,12 +27,26 @@ import numpy as np
 from .champion import Champion
 from .config import TrainConfig
 from .evaluator import TeamEvaluator
-from .files import atomic_write_csv, atomic_write_json, read_versioned_json, versioned
+from .files import (
+    atomic_write_checked_json,
+    atomic_write_csv,
+    atomic_write_json,
+    read_checked_json,
+    read_versioned_json,
+    remove_stray_temp_files,
+    versioned,
+)
+from .folder_lock import check_folder_usable
 from .neat.genome import Genome
 from .neat.population import Population
 
 #: settings that only decide when a run ends; they may change when a run is resumed (e.g. more generations)
 STOPPING_RULES = ("generations", "stop_when_solved", "after_solved")
+
+#: what a run writes into its folder; --overwrite removes exactly these (and archive/)
+RUN_FILES = ("config.json", "log.csv", "checkpoint.json", "summary.json", "champion.json", "fitness.png",
+             "champion.gif", "champion.png")
+RUN_FOLDERS = ("archive",)
 
 LOG_HEADER = ["generation", "evaluations", "best_fitness", "mean_fitness", "best_ever", "solved", "n_solved",
               "n_species", "threshold", "mean_complexity", "seconds"]
@@ -50,9 +68,15 @@ class Progress:
 class Trainer:
     """One evolutionary run in a folder.  Create it fresh or with resume=True to continue a checkpoint."""
 
-    def __init__(self, config: TrainConfig, out_dir: "str | Path", resume: bool = False) -> None:
+    def __init__(self, config: TrainConfig, out_dir: str | Path, resume: bool = False,
+                 overwrite: bool = False) -> None:
+        """resume: continue the folder's checkpoint (a run killed before its first checkpoint starts over, the
+        same run from the same config).  overwrite: remove the folder's old run first.  A fresh run in a
+        folder that holds another run is refused."""
+        if resume and overwrite:
+            raise ValueError("choose one of --resume (continue the run in the folder) and --overwrite (replace it)")
         self.config = config
-        self.out = Path(out_dir)
+        self.out = check_folder_usable(out_dir, "run folder")
         self.evaluator = TeamEvaluator(config.mode, config.map, config.task, config.episodes, seed=config.seed,
                                        evaluate_modules=config.evaluate_modules,
                                        cppn_activation=config.cppn_activation, noise_draws=config.noise_draws,
@@ -62,23 +86,32 @@ class Trainer:
         self.first_solved: Optional[int] = None
         self.archived_fitness = -np.inf
         self.wall = 0.0
+        remove_stray_temp_files(self.out)
         ckpt = self.out / "checkpoint.json"
-        if resume:
+        if resume and not ckpt.exists() and (self.out / "config.json").exists():
+            # killed before its first checkpoint: nothing to continue, so the same run starts over
+            self._check_same_run(read_versioned_json(self.out / "config.json", "config"))
+            overwrite = True
+        elif resume:
             self._resume(ckpt)
-        else:
-            if ckpt.exists():
-                raise ValueError(f"{str(self.out)!r} already holds a run (checkpoint.json); use --resume to continue "
-                                 "it or choose another --out")
-            self.population = Population.create(config.neat, seed=config.seed, kind=config.init,
-                                                n_inputs=config.n_cppn_inputs)
-            self.out.mkdir(parents=True, exist_ok=True)
-            atomic_write_json(self.out / "config.json", versioned("config", config.to_dict()))
+            return
+        old = run_files(self.out)
+        if old and not overwrite:
+            what = "a run (checkpoint.json)" if ckpt.exists() else f"another run ({', '.join(old)})"
+            raise ValueError(f"{str(self.out)!r} already holds {what}; use --resume to continue it, --overwrite "
+                             "to replace it, or choose another --out")
+        if old:
+            clear_run(self.out)
+        self.population = Population.create(config.neat, seed=config.seed, kind=config.init,
+                                            n_inputs=config.n_cppn_inputs)
+        self.out.mkdir(parents=True, exist_ok=True)
+        atomic_write_json(self.out / "config.json", versioned("config", config.to_dict()))
 
     # ------------------------------------------------------------------ checkpoint
-    def _resume(self, ckpt: Path) -> None:
-        data = read_versioned_json(ckpt, "checkpoint")
+    def _check_same_run(self, saved_config: dict) -> None:
+        """The configuration a folder's run was made with must be the one asked for, but for STOPPING_RULES."""
         # the values it was run with: keys added since keep their defaults, changed defaults their old values
-        saved = TrainConfig.from_saved(data["config"]).to_dict()
+        saved = TrainConfig.from_saved(saved_config).to_dict()
         asked = self.config.to_dict()
         differing = sorted(k for k in asked if k not in STOPPING_RULES and saved[k] != asked[k])
         if "neat" in differing:  # name the NEAT settings, so the message says what to set
@@ -91,13 +124,37 @@ class Trainer:
                              f"made with {_saved_values(saved, differing)})")
         if any(saved[k] != asked[k] for k in STOPPING_RULES):
             atomic_write_json(self.out / "config.json", versioned("config", asked))
-        self.population = Population.from_dict(data["population"])
-        t = data["trainer"]
-        self.best_fitness = -np.inf if t["best_fitness"] is None else float(t["best_fitness"])
-        self.first_solved = t["first_solved"]
-        self.archived_fitness = -np.inf if t["archived_fitness"] is None else float(t["archived_fitness"])
-        self.wall = float(t["wall_seconds"])
-        self.rows = t["log"]
+
+    def _resume(self, ckpt: Path) -> None:
+        data = read_checked_json(ckpt, "checkpoint")
+        where = f"checkpoint file {str(ckpt)!r} is malformed"
+        try:
+            if not isinstance(data.get("config"), dict):
+                raise KeyError("config")
+            self._check_same_run(data["config"])
+        except (KeyError, TypeError, AttributeError, IndexError) as exc:
+            raise ValueError(f"{where}: missing or wrong field {exc}") from exc
+        try:
+            self.population = Population.from_dict(data["population"])
+            t = data["trainer"]
+            self.best_fitness = -np.inf if t["best_fitness"] is None else float(t["best_fitness"])
+            self.first_solved = None if t["first_solved"] is None else int(t["first_solved"])
+            self.archived_fitness = -np.inf if t["archived_fitness"] is None else float(t["archived_fitness"])
+            self.wall = float(t["wall_seconds"])
+            self.rows = t["log"]
+            if not isinstance(self.rows, list) or not all(isinstance(r, list) and len(r) == len(LOG_HEADER)
+                                                          for r in self.rows):
+                raise TypeError(f"'log' must hold rows of {len(LOG_HEADER)} values ({', '.join(LOG_HEADER)})")
+        except (KeyError, TypeError, ValueError, AttributeError, IndexError) as exc:
+            raise ValueError(f"{where}: missing or wrong field {exc}") from exc
+        state = self.population.settings.to_dict()
+        asked = self.config.neat.to_dict()
+        differing = sorted(k for k in set(state) | set(asked) if state.get(k) != asked.get(k))
+        if differing:
+            raise ValueError(f"cannot resume {str(self.out)!r}: the population in checkpoint.json was bred with "
+                             f"other NEAT settings than its configuration says ({differing}: "
+                             f"{', '.join(f'{k} = {state.get(k)!r}' for k in differing)} in the state); the file "
+                             "was edited by hand")
 
     def _checkpoint(self) -> None:
         state = {"config": self.config.to_dict(), "population": self.population.to_dict(), "trainer": {
@@ -105,7 +162,7 @@ class Trainer:
             "first_solved": self.first_solved,
             "archived_fitness": None if not np.isfinite(self.archived_fitness) else self.archived_fitness,
             "wall_seconds": self.wall, "log": self.rows}}
-        atomic_write_json(self.out / "checkpoint.json", versioned("checkpoint", state), compact=True)
+        atomic_write_checked_json(self.out / "checkpoint.json", "checkpoint", state)
 
     # ------------------------------------------------------------------ loop
     @property
@@ -190,12 +247,28 @@ class Trainer:
         return summary
 
 
+def run_files(folder: Path) -> list[str]:
+    """The files and folders of a run that `folder` holds."""
+    return [name for name in RUN_FILES + RUN_FOLDERS if (folder / name).exists()]
+
+
+def clear_run(folder: Path) -> None:
+    """Remove a run's files (nothing else a user keeps in the folder)."""
+    import shutil
+
+    for name in RUN_FILES:
+        (folder / name).unlink(missing_ok=True)
+    for name in RUN_FOLDERS:
+        if (folder / name).is_dir():
+            shutil.rmtree(folder / name)
+
+
 def _saved_values(saved: dict[str, Any], keys: list[str]) -> str:
     vals = [f"{k} = {saved['neat'].get(k[5:]) if k.startswith('neat.') else saved.get(k)!r}" for k in keys]
     return ", ".join(vals)
 
 
-def train(config: TrainConfig, out_dir: "str | Path", resume: bool = False,
-          on_generation: Optional[Callable[[Progress], None]] = None) -> dict:
-    """Python API of `mahn-evo train`: run (or continue) a run and return its summary."""
-    return Trainer(config, out_dir, resume=resume).run(on_generation)
+def train(config: TrainConfig, out_dir: str | Path, resume: bool = False,
+          on_generation: Optional[Callable[[Progress], None]] = None, overwrite: bool = False) -> dict:
+    """Python API of `mahn-evo train`: run (or continue, or replace) a run and return its summary."""
+    return Trainer(config, out_dir, resume=resume, overwrite=overwrite).run(on_generation)

@@ -12,12 +12,13 @@ import numpy as np
 
 from ..controllers import TeamControllers
 from ..khepera import DEFAULT_MODEL, KheperaModel
-from ..maps import World, load_map
+from ..maps import World, load_map, wall_clearance
 from . import kernels
 from . import task as T
 from .controller import transposed
 from .geometry import sensor_directions, touches_any_wall, wall_boxes
 from .params import TaskParams
+from .rng import check_seed
 
 
 @dataclass
@@ -54,6 +55,21 @@ def validate_poses(world: World, poses: np.ndarray, radius: float, n_robots: int
     return arr
 
 
+def check_start_jitter(world: World, params: TaskParams, radius: float) -> None:
+    """Every start pose jittered by up to `start_jitter_xy` in x and y must keep the robot clear of the walls:
+    a larger jitter would start robots inside walls or outside the arena."""
+    j = float(params.start_jitter_xy)
+    if j == 0.0:
+        return
+    for r, (x, y, _) in enumerate(world.starts):
+        gap, w = wall_clearance(world.walls, float(x), float(y), j)
+        if gap < radius:
+            room, _ = wall_clearance(world.walls, float(x), float(y))
+            raise ValueError(f"TaskParams.start_jitter_xy = {j:g} cm can put robot {r} into walls[{w}] of map "
+                             f"{world.name!r} (its start is {room:.3g} cm from the nearest wall and the robot's "
+                             f"radius is {radius:g} cm): use a smaller jitter")
+
+
 class BatchSim:
     """B episodes of the task in lock-step.  All randomness flows from the seed given to `reset`."""
 
@@ -69,6 +85,7 @@ class BatchSim:
         if n_pois != n_robots:
             raise ValueError(f"map {self.world.name!r} has {n_robots} start poses but {n_pois} POIs: the patrol "
                              "fitness (one POI per robot, as in the original) needs as many robots as POIs")
+        check_start_jitter(self.world, self.params, model.radius)
         self.n_episodes = int(n_episodes)
         self.n_robots = n_robots
         self._pvec = self.params.vector(model)
@@ -96,7 +113,9 @@ class BatchSim:
 
     def set_params(self, **changes) -> TaskParams:
         """Replace some task parameters (validated); returns the new TaskParams."""
-        self.params = replace(self.params, **changes)
+        params = replace(self.params, **changes)
+        check_start_jitter(self.world, params, self.model.radius)
+        self.params = params
         self._pvec = self.params.vector(self.model)
         return self.params
 
@@ -119,9 +138,7 @@ class BatchSim:
         `episode_keys` name the episodes for the random streams (default 0..B-1): the same key and seed give
         the same noise whatever batch the episode runs in.
         """
-        if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
-            raise ValueError(f"seed must be a non-negative integer, got {seed!r}")
-        self.seed = int(seed)
+        self.seed = check_seed(seed, "seed")
         if episode_keys is None:
             self.keys = np.arange(self.n_episodes, dtype=np.uint64)
         else:

@@ -16,6 +16,13 @@ ORIGINAL_SIGNAL_TICK = 690
 ORIGINAL_SAMPLE_PERIOD = 30
 
 
+def check_flag(value: object, field: str) -> bool:
+    """A switch must be a real boolean: the string 'no' is truthy, so accepting it would turn the switch on."""
+    if not isinstance(value, (bool, np.bool_)):
+        raise TypeError(f"{field} must be True or False, got {value!r} of type {type(value).__name__}")
+    return bool(value)
+
+
 @dataclass(frozen=True)
 class TaskParams:
     """Episode timing, noise and rule switches.  Every default reproduces the original system.
@@ -48,6 +55,8 @@ class TaskParams:
             if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)) \
                     or not math.isfinite(value) or value < 0:
                 raise ValueError(f"TaskParams.{name} must be a finite number >= 0, got {value!r}")
+        for name in ("robots_see_each_other", "reflex", "auto_signal"):
+            check_flag(getattr(self, name), f"TaskParams.{name}")
         if self.effector_noise >= 100:
             raise ValueError("TaskParams.effector_noise must be below 100 (percent), or robots would reverse")
         if self.signal_tick % self.sample_period != 0:

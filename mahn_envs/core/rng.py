@@ -18,6 +18,20 @@ _S31 = np.uint64(31)
 _S11 = np.uint64(11)
 _INV53 = 1.0 / 9007199254740992.0
 
+#: seeds are unsigned 64-bit integers: the compiled core mixes them as uint64
+MAX_SEED = 2**64 - 1
+
+
+def check_seed(seed: object, field: str = "seed") -> int:
+    """A seed as a Python int in [0, 2**64); anything else (negative, a float or string, a bool, wider than 64
+    bits, where numba would overflow) is a TypeError/ValueError naming `field`."""
+    if isinstance(seed, (bool, np.bool_)) or not isinstance(seed, (int, np.integer)):
+        raise TypeError(f"{field} must be an integer in [0, 2**64), got {seed!r} of type {type(seed).__name__}")
+    if not 0 <= int(seed) <= MAX_SEED:
+        raise ValueError(f"{field} must be an integer in [0, 2**64), got {seed!r}")
+    return int(seed)
+
+
 # channels: one per kind of draw, so draws never collide
 CH_SENSOR = 0  # + sensor index (0..5)
 CH_SPEED = 8

@@ -16,7 +16,8 @@ from pettingzoo.utils import parallel_to_aec, wrappers
 
 from ..core import TaskParams
 from ..core import task as T
-from ..core.params import ORIGINAL_MAX_TICKS, ORIGINAL_SIGNAL_TICK
+from ..core.params import ORIGINAL_MAX_TICKS, ORIGINAL_SIGNAL_TICK, check_flag
+from ..core.rng import check_seed
 from ..engines import make_engine
 from ..khepera import DEFAULT_MODEL, KheperaModel
 from ..maps import World, load_map
@@ -111,6 +112,7 @@ class PatrolReturnEnv(ParallelEnv):
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode must be one of {self.metadata['render_modes']} or None, "
                              f"got {render_mode!r}")
+        check_flag(robots_collide, "robots_collide")
         self.world = load_map(map)
         self.params = TaskParams(max_cycles=max_cycles, signal_tick=signal_tick, sensor_noise=sensor_noise,
                                  effector_noise=effector_noise, heading_noise=heading_noise,
@@ -155,10 +157,9 @@ class PatrolReturnEnv(ParallelEnv):
     # -------------------------------------------------------------- episode
     def reset(self, seed: int | None = None, options: dict | None = None):
         if seed is not None:
+            seed = check_seed(seed, "seed")
             self._seed_rng = np.random.default_rng(seed)
-            sim_seed = int(seed) & 0x7FFFFFFFFFFFFFFF
-            if seed < 0:
-                raise ValueError(f"seed must be a non-negative integer, got {seed}")
+            sim_seed = seed & 0x7FFFFFFFFFFFFFFF
         else:
             sim_seed = int(self._seed_rng.integers(0, 2**63 - 1))
         for i, a in enumerate(self.possible_agents):

@@ -3,6 +3,8 @@
 A run is a pure function of its TrainConfig, so both backends give bit-identical run folders for the same
 seeds; the backend only decides where the work happens.  Every run checkpoints each generation, so an
 interrupted experiment (Ctrl-C, a lost node) loses at most one generation per run when it is started again.
+Local workers die with the experiment process, even when it is killed by SIGKILL (`die_with_parent`), and each
+run holds its folder's lock while it writes, so a rerun never works beside the orphans of a killed one.
 
 With Ray on more than one machine the experiment folder must be on a file system every node sees (NFS, a
 mounted bucket): the runs write their files there, as they do locally.
@@ -10,6 +12,8 @@ mounted bucket): the runs write their files there, as they do locally.
 from __future__ import annotations
 
 import os
+import sys
+import time
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
 from multiprocessing import get_context
@@ -22,27 +26,65 @@ Task = tuple[str, dict[str, Any], str]  # (run name, TrainConfig dict, run folde
 
 
 def run_one(config: dict[str, Any], run_dir: str, threads: int = 1) -> dict[str, Any]:
-    """Run (or finish, or just read) one training run; returns its summary."""
-    import json
-
+    """Run (or finish, or just read) one training run, holding its folder's lock; returns its summary."""
     import numba
 
     from ..config import TrainConfig
+    from ..files import read_json_object
+    from ..folder_lock import folder_lock
     from ..trainer import Trainer
 
     numba.set_num_threads(max(1, min(threads, numba.config.NUMBA_NUM_THREADS)))
     cfg = TrainConfig.from_mapping(config)
     out = Path(run_dir)
-    resume = (out / "checkpoint.json").exists()
-    trainer = Trainer(cfg, out, resume=resume)
-    if resume and trainer.done() and (out / "summary.json").exists():
+    with folder_lock(out, "run folder"):
+        # a run killed before its first checkpoint has only its config.json: resuming starts it over
+        resume = (out / "checkpoint.json").exists() or (out / "config.json").exists()
+        trainer = Trainer(cfg, out, resume=resume)
+        if resume and trainer.done() and (out / "summary.json").exists():
+            try:
+                summary = read_json_object(out / "summary.json", "summary")
+            except ValueError:
+                summary = {}  # a damaged summary is rewritten from the checkpoint below
+            if summary.get("generations") == trainer.generation:
+                return summary
+        return trainer.run()
+
+
+#: seconds between a worker's checks that its parent is still alive (where the kernel cannot tell it)
+PARENT_POLL_SECONDS = 1.0
+
+
+def die_with_parent(parent_pid: int) -> None:
+    """Worker initializer: end this worker when the experiment process that started it dies, even by SIGKILL,
+    so no orphan keeps writing into the run folders beside a rerun's workers.
+
+    On Linux the kernel sends SIGKILL at the parent's death (prctl PR_SET_PDEATHSIG); everywhere a daemon thread
+    also polls the parent pid (an orphan is re-parented, so its parent pid changes).  Runs checkpoint
+    atomically, so a worker killed mid-generation loses only that generation.
+    """
+    import signal
+    import threading
+
+    if sys.platform.startswith("linux"):
+        import ctypes
+
+        PR_SET_PDEATHSIG = 1
         try:
-            summary = json.loads((out / "summary.json").read_text())
-        except json.JSONDecodeError:
-            summary = {}  # a damaged summary is rewritten from the checkpoint below
-        if summary.get("generations") == trainer.generation:
-            return summary
-    return trainer.run()
+            libc = ctypes.CDLL(None, use_errno=True)
+            libc.prctl(PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
+        except (OSError, AttributeError):
+            pass  # the watchdog below still ends the worker
+    if os.getppid() != parent_pid:  # the parent died before prctl took effect
+        os._exit(1)
+
+    def watchdog() -> None:
+        while True:
+            time.sleep(PARENT_POLL_SECONDS)
+            if os.getppid() != parent_pid:
+                os._exit(1)
+
+    threading.Thread(target=watchdog, name="mahn-parent-watchdog", daemon=True).start()
 
 
 def _stop_workers(pool: ProcessPoolExecutor) -> None:
@@ -75,7 +117,8 @@ def run_local(tasks: Sequence[Task], workers: int, on_done: Optional[Callable[[s
             if on_done:
                 on_done(name, results[name])
     else:
-        pool = ProcessPoolExecutor(max_workers=workers, mp_context=get_context("spawn"))
+        pool = ProcessPoolExecutor(max_workers=workers, mp_context=get_context("spawn"), initializer=die_with_parent,
+                                   initargs=(os.getpid(),))
         try:
             pending = {pool.submit(run_one, cfg, folder, threads): name for name, cfg, folder in tasks}
             while pending:

@@ -11,6 +11,8 @@ from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any, Mapping
 
+from mahn_envs.core.rng import check_seed
+
 from ..config import INITS, TrainConfig
 from ..files import atomic_write_json, read_versioned_json, versioned
 from ..neat.settings import LEGACY_VALUES, NeatSettings, with_legacy_values
@@ -63,6 +65,7 @@ class ExperimentPlan:
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, int) or v < 0:
                 raise ValueError(f"{name} must be a non-negative integer, got {v!r}")
+        check_seed(self.seed + self.runs - 1, "seed of the last run (seed + runs - 1)")
         self.train_config(self.modes[0], self.seed)  # validates the rest (population, NEAT overrides)
 
     # ------------------------------------------------------------------ runs

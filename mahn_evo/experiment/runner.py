@@ -10,6 +10,8 @@ import time
 from pathlib import Path
 from typing import Any, Callable, Optional
 
+from ..files import remove_stray_temp_files
+from ..folder_lock import folder_lock, lock_holder
 from .backends import run_tasks
 from .plan import PLAN_FILE, ExperimentPlan
 from .report import write_results
@@ -23,9 +25,21 @@ def run_experiment(plan: ExperimentPlan, out: "str | Path", backend: str = "loca
         if not (out / PLAN_FILE).exists():
             raise ValueError(f"{str(out)!r} holds no experiment ({PLAN_FILE} missing); start it without --report-only")
         return write_results(ExperimentPlan.load(out), out, log=log)
+    with folder_lock(out, "experiment folder"):
+        return _run(plan, out, backend, workers, address, analyse, log)
+
+
+def _run(plan: ExperimentPlan, out: Path, backend: str, workers: int, address: str | None, analyse: bool,
+         log: Callable[[str], None]) -> dict[str, Any]:
     plan.save_or_check(out)
     tasks = [(folder.name, plan.train_config(mode, seed).to_dict(), str(folder))
              for mode, seed, folder in plan.tasks(out)]
+    holders = {name: lock_holder(folder) for name, _, folder in tasks}
+    busy = [f"{name} (process {pid or 'unknown'})" for name, pid in holders.items() if pid is not None]
+    if busy:  # e.g. workers of a killed experiment that outlived it: two writers would corrupt the runs
+        raise ValueError(f"run folder(s) of {str(out)!r} are in use by other processes: {', '.join(busy)}; stop "
+                         "them first")
+    remove_stray_temp_files(out)
     t0 = time.perf_counter()
     count = [0]
 

@@ -7,13 +7,13 @@ experiment is still running and is never biased by runs that simply have not had
 from __future__ import annotations
 
 import csv
-import json
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Optional
 
 import numpy as np
 
+from ..files import read_json_object
 from .plan import ExperimentPlan
 
 #: The paper's figures (IROS 2011, 15 runs per mode, population 500, up to 1000 generations).
@@ -66,9 +66,9 @@ def load_run(plan: ExperimentPlan, mode: str, seed: int, folder: Path) -> RunRec
     summary = {}
     if (folder / "summary.json").exists():
         try:
-            summary = json.loads((folder / "summary.json").read_text())
-        except json.JSONDecodeError:
-            summary = {}
+            summary = read_json_object(folder / "summary.json", "summary")
+        except ValueError:
+            summary = {}  # damaged: the run counts as unfinished, and finishing it rewrites the summary
     finished = bool(summary) and summary.get("generations") == gens and (
         gens >= plan.generations or (first is not None and gens > first + plan.after_solved))
     wall = float(sum(float(r["seconds"]) for r in rows))

@@ -98,3 +98,15 @@ def test_bad_config_is_rejected() -> None:
         TrainConfig(algo="a2c", steps=10)
     with pytest.raises(SystemExit):
         main(["train", "--algo", "ppo", "--steps", "10", "--out", "x", "--hyperparams", "[1]"])
+
+
+def test_a_budget_below_one_episode_per_slot_is_refused(tmp_path, capsys) -> None:
+    """Fewer robot-steps than one full episode in every slot: no episode ends, so "best" would be the untrained
+    policy.  Refused before anything is written."""
+    out = tmp_path / "short"
+    args = ["train", "--algo", "ppo", "--seed", "0", "--out", str(out), "--max-cycles", "60", "--signal-tick", "30",
+            "--n-episodes", "4"]
+    assert main([*args, "--steps", "719"]) == 2  # 60 ticks x 4 episodes x 3 robots = 720
+    assert "at least one full episode per slot" in capsys.readouterr().err and not out.exists()
+    cfg = TrainConfig(algo="ppo", steps=720, max_cycles=60, signal_tick=30, n_episodes=4)
+    cfg.check_budget()

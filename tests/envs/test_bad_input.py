@@ -99,3 +99,71 @@ def test_core_actions_validated():
         sim.step(np.full((2, 3), 7))
     with pytest.raises(ValueError, match="integers"):
         sim.step(np.full((2, 3), 0.5))
+
+
+# ------------------------------------------------------------------ issue 14: inputs accepted silently before
+@pytest.mark.parametrize("starts, match", [
+    ([[93.5, 68.9, 0.0], [78.74, 38.9, 0.0], [93.55, 8.9, 0.0]], r"starts\[1\].*on or inside the wall"),  # on a wall
+    ([[93.5, 68.9, 0.0], [93.5, 38.9, 0.0], [93.55, 3.0, 0.0]], r"starts\[2\].*on or inside the wall"),  # overlapping
+    ([[93.5, 68.9, 0.0], [20.0, 20.0, 0.0], [93.55, 8.9, 0.0]], r"starts\[1\].*outside every corridor"),  # dead corner
+])
+def test_start_poses_must_lie_in_a_corridor_clear_of_walls(tmp_path, starts, match):
+    with pytest.raises(ValueError, match=match):
+        load_map(_map(tmp_path, starts=starts))
+
+
+@pytest.mark.parametrize("walls, match", [
+    ([[0, 0, 1e308, 0]], r"walls\[12\].*within"), ([[0, 0, 10**400, 0]], r"walls\[12\]"),
+    ([[0, 0, 3e7, 0]], r"walls\[12\].*within"),
+])
+def test_absurd_or_overflowing_wall_coordinates(tmp_path, walls, match):
+    data = load_map("plus").to_dict()
+    data["walls"] = data["walls"] + walls
+    path = tmp_path / "m.json"
+    path.write_text(json.dumps(data).replace("1e+308", "1e308"))
+    with pytest.raises(ValueError, match=match):
+        load_map(str(path))
+
+
+def test_map_paths_that_are_empty_folders_undecodable_or_too_deep(tmp_path):
+    with pytest.raises(ValueError, match="empty path"):
+        load_map("")
+    with pytest.raises(ValueError, match="folder"):
+        load_map(str(tmp_path))
+    p = tmp_path / "latin1.json"
+    p.write_bytes(b'{"name": "caf\xe9"}')
+    with pytest.raises(ValueError, match="not UTF-8"):
+        load_map(str(p))
+    p.write_text("[" * 100_000 + "]" * 100_000)
+    with pytest.raises(ValueError, match="nested too deeply"):
+        load_map(str(p))
+
+
+@pytest.mark.parametrize("flag", ["robots_see_each_other", "reflex", "auto_signal", "robots_collide"])
+@pytest.mark.parametrize("value", ["no", "False", 1, None])
+def test_boolean_flags_must_be_booleans(flag, value):
+    with pytest.raises(TypeError, match=flag):
+        patrol_return_v0.parallel_env(**{flag: value})
+
+
+def test_true_flags_still_work():
+    env = patrol_return_v0.parallel_env(robots_see_each_other=True, reflex=np.bool_(True), auto_signal=False)
+    assert env.params.robots_see_each_other and not env.params.auto_signal
+
+
+@pytest.mark.parametrize("jitter", [40.0, 3.0])
+def test_start_jitter_that_puts_robots_into_walls_is_refused(jitter):
+    with pytest.raises(ValueError, match="start_jitter_xy"):
+        patrol_return_v0.parallel_env(start_jitter_xy=jitter)
+    with pytest.raises(ValueError, match="start_jitter_xy"):
+        BatchSim("plus", 2).set_params(start_jitter_xy=jitter)
+    patrol_return_v0.parallel_env(start_jitter_xy=2.0)  # the generalisation test's level fits every start
+
+
+@pytest.mark.parametrize("seed, error", [(-1, ValueError), (2**64, ValueError), (2**70, ValueError),
+                                         (1.5, TypeError), ("3", TypeError), (True, TypeError)])
+def test_seeds_negative_non_integer_or_wider_than_64_bits(env, seed, error):
+    with pytest.raises(error, match="seed"):
+        env.reset(seed=seed)
+    with pytest.raises(error, match="seed"):
+        BatchSim("plus", 1).reset(seed)

@@ -54,8 +54,8 @@ def test_archive_keeps_improving_solutions(tmp_path, monkeypatch):
     real_score = tr.evaluator.score
     schedule = iter([105.0, 104.0, 110.0, 110.0])
 
-    def fake_score(controllers):
-        fit, solved = real_score(controllers)
+    def fake_score(controllers, generation=0):
+        fit, solved = real_score(controllers, generation)
         top = next(schedule)
         fit = fit.copy()
         fit[3] = top

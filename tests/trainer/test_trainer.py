@@ -172,6 +172,7 @@ def _strip_tie_rule(run):
     for key in ("tie_break", "respeciate_parents_first"):
         del ck["config"]["neat"][key], ck["population"]["settings"][key]
     del ck["population"]["born"], ck["population"]["parents"]
+    del ck["sha256"]  # nor content checksums
     (run / "checkpoint.json").write_text(json.dumps(ck))
     cfg = json.loads((run / "config.json").read_text())
     del cfg["neat"]["tie_break"], cfg["neat"]["respeciate_parents_first"]
