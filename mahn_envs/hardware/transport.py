@@ -89,10 +89,16 @@ class _NoLine(Exception):
     """Internal: the deadline passed before a complete line arrived."""
 
 
+#: Seconds a write may block before the link counts as failed.  Not the read polling step: a 10 ms write timeout
+#: on a busy machine made a healthy socket link "fail" and reconnect mid-episode.
+WRITE_TIMEOUT = 0.5
+
+
 def open_url(url: str, timeout: float, baudrate: int) -> Any:
+    """Open `url` with `timeout` as the read polling step (deadlines are the link's own) and WRITE_TIMEOUT."""
     if _serial is None:
         raise ImportError("the hardware env needs pyserial: pip install 'mahn[hardware]'")
-    return _serial.serial_for_url(url, baudrate=baudrate, timeout=timeout, write_timeout=timeout)
+    return _serial.serial_for_url(url, baudrate=baudrate, timeout=timeout, write_timeout=WRITE_TIMEOUT)
 
 
 def _link_errors() -> tuple[type, ...]:

@@ -162,3 +162,14 @@ def test_retry_policy_validation():
     for bad in [dict(timeout=0), dict(attempts=0), dict(reconnects=-1), dict(backoff=-1)]:
         with pytest.raises(ValueError):
             RetryPolicy(**bad)
+
+
+def test_the_write_timeout_is_not_the_read_polling_step():
+    """A 10 ms write timeout (the read polling step) made healthy links fail and reconnect on a busy machine."""
+    from mahn_envs.hardware.transport import WRITE_TIMEOUT, open_url
+
+    port = open_url("loop://", 0.01, 115200)
+    try:
+        assert port.timeout == 0.01 and port.write_timeout == WRITE_TIMEOUT >= 0.5
+    finally:
+        port.close()
