@@ -29,7 +29,7 @@ def _sigmoid(x):
     return np.float32(1.0) / (np.float32(1.0) + np.float32(math.exp(-SIGMOID_SLOPE * x)))
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def winner_take_all(o0, o1, o2):
     """Forward wins every tie, then left beats right; NaN outputs decide nothing (the original's rule)."""
     if o1 - o0 >= 0 and o1 - o2 >= 0:
@@ -168,7 +168,7 @@ def _hidden_step_9(b, r, k, obs, wt_ih, wt_hh, b_h, hid, tmp, ih_at, hh_at, obs_
         hid[b, r, i] = _sigmoid(tmp[i] + b_h[b, r, k, i])
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def network_action_9(b, r, obs, rflag_signal, wt_ih, wt_hh, wt_ho, b_h, b_o, hid, out, brain, tmp):
     """`network_action` for 7 inputs and 9 hidden nodes (see `is_size_9`): the same float32 operations in the
     same order, so bit-identical results, in about half the time.

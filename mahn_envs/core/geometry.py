@@ -74,7 +74,7 @@ def touches_wall(cx, cy, radius, x1, y1, x2, y2):
     return d1 < radius * radius or d2 < radius * radius
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def touches_any_wall(cx, cy, radius, walls, boxes):
     for w in range(walls.shape[0]):
         if (cx + radius < boxes[w, 0] or cx - radius > boxes[w, 2]
@@ -85,7 +85,7 @@ def touches_any_wall(cx, cy, radius, walls, boxes):
     return False
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def cast_rays(cx, cy, heading, dirs, max_range, walls, boxes, others, n_others, robot_radius, out, cand):
     """Centre-to-hit distance of each ray (max_range when nothing is hit) against walls and other robots.
 

@@ -90,6 +90,8 @@ def run_controllers(pose, raw, obs, racc, rflag, goto, est, walls, boxes, dirs, 
             for r in range(n_robots):
                 # Numba's cache keys on this file's text only: after changing a called function (e.g. the
                 # network), change this file too, or cached episodes keep running the old compiled code.
+                # The task's functions are inlined here (inline="always"): as calls, each one paid a reference
+                # count round trip per array argument, which cost more than half of the episode's time.
                 if size_9:
                     action = network_action_9(b, r, obs, rflag[b, r, F_SIGNAL], wt_ih, wt_hh, wt_ho, b_h, b_o,
                                               hid, out, brain, tmp_h)

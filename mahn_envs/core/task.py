@@ -48,7 +48,7 @@ MOVED_MIN = 5.0
 SOLVED_BONUS = 100.0
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def encode_episode(b, tick, raw, obs, rflag, params, seed, key):
     """Turn ray distances into inputs: (d - 6.5)/10.16 in float32, noise, capped at 1, floored to 0 at <= 0.25."""
     f_radius = np.float32(params[P_RADIUS])
@@ -68,7 +68,7 @@ def encode_episode(b, tick, raw, obs, rflag, params, seed, key):
         obs[b, r, 6] = np.float32(rflag[b, r, F_SIGNAL])
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def sense_episode(b, tick, pose, raw, obs, rflag, walls, boxes, dirs, params, seed, key, others, cand):
     """Cast every robot's rays and encode them as the inputs of the coming tick.
 
@@ -90,7 +90,7 @@ def sense_episode(b, tick, pose, raw, obs, rflag, walls, boxes, dirs, params, se
     encode_episode(b, tick, raw, obs, rflag, params, seed, key)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def decide_robot(b, r, action, tick, pose, raw, params, seed, key):
     """Apply an action (and, for forward, the collision-avoidance reflex) to heading and velocity.
 
@@ -139,7 +139,7 @@ def decide_robot(b, r, action, tick, pose, raw, params, seed, key):
     return corrected
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def move_robot(b, r, pose, racc, params, walls, boxes):
     """Drive straight for one tick; on touching a wall go back to where the tick started (no sliding)."""
     ox = pose[b, r, X]
@@ -160,7 +160,7 @@ def _manhattan(x, y, px, py):
     return abs(x - px) + abs(y - py)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def give_signal(b, pose, racc, rflag, est, pois, home):
     """The come-home event: remember where everyone is and whether every POI is covered."""
     n_robots = pose.shape[1]
@@ -180,7 +180,7 @@ def give_signal(b, pose, racc, rflag, est, pois, home):
     est[b, E_SWITCHED] = 1
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def score_tick(b, tick, pose, racc, rflag, goto, est, pois, home, params):
     """Fitness bookkeeping after motion; samples every `period` ticks, the signal at `signal_tick`."""
     period = int(params[P_PERIOD])
@@ -208,7 +208,7 @@ def score_tick(b, tick, pose, racc, rflag, goto, est, pois, home, params):
             racc[b, i, R_END] += max(0.0, (racc[b, i, R_ORIG_DIST] - d2) / RETURN_SCALE)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def team_fitness(b, pose, racc, rflag, goto, est, home):
     """The score if the episode ended now: 1e-6 + patrol + return credit, the penalties, +100 if solved."""
     n_robots = pose.shape[1]
