@@ -207,3 +207,45 @@ def network_action_9(b, r, obs, rflag_signal, wt_ih, wt_hh, wt_ho, b_h, b_o, hid
     for q in range(3):
         out[b, r, q] = _sigmoid(tmp[9 + q] + b_o[b, r, k, q])
     return winner_take_all(out[b, r, 0], out[b, r, 1], out[b, r, 2])
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def remembered_action(b, r, obs, rflag_signal, wt_ih, wt_hh, wt_ho, b_h, b_o, hid, out, brain, tmp, prev,
+                      memo_obs, memo):
+    """`network_action`, skipped when it would repeat itself exactly.
+
+    The network is a pure function of (inputs, signal, hidden state, brain).  When the last call left the
+    hidden state where it found it (a fixed point of the two steps, no brain switch) and this call sees the same
+    inputs and signal, it would compute the same hidden state, outputs and action again: those are already in
+    `hid` and `out`, and the action is remembered.  Evolved robots spend much of an episode in such states (open
+    corridors read all-1 inputs).  Per robot, `memo_obs` (R, n_in) float32 holds the inputs of the last call and
+    `memo` (R, 3) int64 (fixed point, signal, action), with memo[r, 0] = 0 before the first call; `prev` is
+    float32 scratch of n_hidden.  Comparisons are exact (==): inputs and hidden values are never -0.0 (the
+    floor and the sigmoid give +0.0), and a NaN never compares equal, so it is always recomputed.
+    """
+    n_in = wt_ih.shape[3]
+    n_hidden = wt_hh.shape[3]
+    if memo[r, 0] == 1 and memo[r, 1] == rflag_signal:
+        same = True
+        for j in range(n_in):
+            if obs[b, r, j] != memo_obs[r, j]:
+                same = False
+        if same:
+            return memo[r, 2]
+    for i in range(n_hidden):
+        prev[i] = hid[b, r, i]
+    k = brain[b, r]
+    if is_size_9(wt_ih):
+        action = network_action_9(b, r, obs, rflag_signal, wt_ih, wt_hh, wt_ho, b_h, b_o, hid, out, brain, tmp)
+    else:
+        action = network_action(b, r, obs, rflag_signal, wt_ih, wt_hh, wt_ho, b_h, b_o, hid, out, brain, tmp)
+    fixed = brain[b, r] == k
+    for i in range(n_hidden):
+        if hid[b, r, i] != prev[i]:
+            fixed = False
+    for j in range(n_in):
+        memo_obs[r, j] = obs[b, r, j]
+    memo[r, 0] = 1 if fixed else 0
+    memo[r, 1] = rflag_signal
+    memo[r, 2] = action
+    return action

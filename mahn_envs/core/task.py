@@ -21,7 +21,7 @@ import math
 import numpy as np
 from numba import njit
 
-from .geometry import cast_rays, touches_any_wall
+from .geometry import cast_rays_trig, touches_any_wall
 from .rng import CH_HEADING, CH_SENSOR, CH_SPEED, CH_TURN, uniform
 
 # indices into the float64 parameter vector built by TaskParams.vector()
@@ -74,20 +74,24 @@ def sense_episode(b, tick, pose, raw, obs, rflag, walls, boxes, dirs, params, se
 
     `others` (R, 2) and `cand` (W,) are scratch arrays, passed in so the hot loop never allocates.
     """
-    n_robots = pose.shape[1]
-    radius = params[P_RADIUS]
-    see = params[P_SEE] > 0.5
-    for r in range(n_robots):
-        n_others = 0
-        if see:
-            for q in range(n_robots):
-                if q != r:
-                    others[n_others, 0] = pose[b, q, X]
-                    others[n_others, 1] = pose[b, q, Y]
-                    n_others += 1
-        cast_rays(pose[b, r, X], pose[b, r, Y], pose[b, r, H], dirs, params[P_RANGE], walls, boxes,
-                  others, n_others, radius, raw[b, r], cand)
+    for r in range(pose.shape[1]):
+        cast_robot_rays(b, r, math.cos(pose[b, r, H]), math.sin(pose[b, r, H]), pose, raw, walls, boxes, dirs,
+                        params, others, cand)
     encode_episode(b, tick, raw, obs, rflag, params, seed, key)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def cast_robot_rays(b, r, ch, sh, pose, raw, walls, boxes, dirs, params, others, cand):
+    """Robot r's ray distances into raw[b, r], given ch, sh = cos and sin of its heading."""
+    n_others = 0
+    if params[P_SEE] > 0.5:
+        for q in range(pose.shape[1]):
+            if q != r:
+                others[n_others, 0] = pose[b, q, X]
+                others[n_others, 1] = pose[b, q, Y]
+                n_others += 1
+    cast_rays_trig(pose[b, r, X], pose[b, r, Y], ch, sh, dirs, params[P_RANGE], walls, boxes, others, n_others,
+                   params[P_RADIUS], raw[b, r], cand)
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -142,11 +146,17 @@ def decide_robot(b, r, action, tick, pose, raw, params, seed, key):
 @njit(cache=True, error_model="numpy", inline="always")
 def move_robot(b, r, pose, racc, params, walls, boxes):
     """Drive straight for one tick; on touching a wall go back to where the tick started (no sliding)."""
+    return drive_robot(b, r, math.cos(pose[b, r, H]), math.sin(pose[b, r, H]), pose, racc, params, walls, boxes)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def drive_robot(b, r, ch, sh, pose, racc, params, walls, boxes):
+    """`move_robot` given ch, sh = cos and sin of the heading (shared with sensing in the episode loop)."""
     ox = pose[b, r, X]
     oy = pose[b, r, Y]
     d = pose[b, r, V] * params[P_DT]
-    nx = ox + math.cos(pose[b, r, H]) * d
-    ny = oy + math.sin(pose[b, r, H]) * d
+    nx = ox + ch * d
+    ny = oy + sh * d
     if touches_any_wall(nx, ny, params[P_RADIUS], walls, boxes):
         racc[b, r, R_COLL] += 1.0
         return False
