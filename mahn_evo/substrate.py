@@ -16,6 +16,8 @@ import numpy as np
 
 from mahn_envs.controllers import N_INPUTS, TeamControllers
 
+from .batch_cppn import evaluate_plans
+
 MODES = ("situational", "standard")
 THRESHOLD = 0.2
 WEIGHT_RANGE = 3.0
@@ -153,5 +155,4 @@ def decode_outputs(outputs: np.ndarray, layout: QueryLayout, normalise: bool = T
 def decode_population(plans: Sequence, mode: str, n_robots: int = 3, normalise: bool = True) -> TeamControllers:
     """Compiled CPPN plans (one per genome) -> a batch of team controllers, one team per genome."""
     layout = query_layout(mode, n_robots)
-    outputs = np.stack([p.evaluate(layout.queries) for p in plans])
-    return decode_outputs(outputs, layout, normalise)
+    return decode_outputs(evaluate_plans(plans, layout.queries), layout, normalise)
