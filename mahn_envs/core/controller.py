@@ -12,21 +12,21 @@ column 6 of w_ih is zero).  The same arrays drive the batch core, the PettingZoo
 """
 from __future__ import annotations
 
-import math
-
 import numpy as np
 from llvmlite import ir
 from numba import njit, types
 from numba.extending import intrinsic
 
+from .expf import SIGMOID_SLOPE32, TABLE, expf, sigmoid_8
 from .task import FORWARD, LEFT, NONE, RIGHT
 
-SIGMOID_SLOPE = np.float32(4.9)
+SIGMOID_SLOPE = SIGMOID_SLOPE32  # 4.9 in float32
 
 
 @njit(cache=True, error_model="numpy", inline="always")
 def _sigmoid(x):
-    return np.float32(1.0) / (np.float32(1.0) + np.float32(math.exp(-SIGMOID_SLOPE * x)))
+    """1/(1+e^(-4.9x)) in float32; the exponential is the C library's expf, inlined (see core.expf)."""
+    return np.float32(1.0) / (np.float32(1.0) + expf(-SIGMOID_SLOPE * x))
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -164,8 +164,8 @@ def _hidden_step_9(b, r, k, obs, wt_ih, wt_hh, b_h, hid, tmp, ih_at, hh_at, obs_
     for m in range(9):
         acc += wt_hh[b, r, k, m, 8] * hid[b, r, m]
     tmp[8] = acc
-    for i in range(9):
-        hid[b, r, i] = _sigmoid(tmp[i] + b_h[b, r, k, i])
+    sigmoid_8(hid, hid_at, tmp, 0, b_h, ((b * b_h.shape[1] + r) * b_h.shape[2] + k) * 9, TABLE)
+    hid[b, r, 8] = _sigmoid(tmp[8] + b_h[b, r, k, 8])
 
 
 @njit(cache=True, error_model="numpy", inline="always")
