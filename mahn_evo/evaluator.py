@@ -31,6 +31,28 @@ class Evaluation:
     controllers: TeamControllers  # batch (N, R, K, ...)
 
 
+CONTROLLER_FIELDS = ("w_ih", "w_hh", "w_ho", "b_h", "b_o")
+
+
+def distinct_teams(ctrl: TeamControllers) -> tuple[np.ndarray, np.ndarray]:
+    """(first, index): `first` lists one team of each distinct set of controller arrays (in order of first
+    appearance) and team i equals team first[index[i]].  Teams are compared bit for bit (float32 patterns)."""
+    n = ctrl.w_ih.shape[0]
+    rows = np.concatenate([np.ascontiguousarray(getattr(ctrl, f), dtype=np.float32).reshape(n, -1)
+                           for f in CONTROLLER_FIELDS], axis=1)
+    seen: dict[bytes, int] = {}
+    first: list[int] = []
+    index = np.empty(n, dtype=np.int64)
+    for i in range(n):
+        key = rows[i].tobytes()
+        j = seen.get(key)
+        if j is None:
+            j = seen[key] = len(first)
+            first.append(i)
+        index[i] = j
+    return np.array(first, dtype=np.int64), index
+
+
 class TeamEvaluator:
     """Scores genomes as teams on one map.  Deterministic: episodes are keyed, not drawn from shared state.
 
@@ -80,8 +102,15 @@ class TeamEvaluator:
         return list(range(first, first + self.episodes))
 
     def score(self, controllers: TeamControllers, generation: int = 0) -> tuple[np.ndarray, np.ndarray]:
-        """Aggregated fitness and solved fraction of each team over its keyed episodes."""
+        """Aggregated fitness and solved fraction of each team over its keyed episodes.
+
+        Teams whose controllers are identical (elites carried over, duplicate offspring, genomes that decode to
+        the same weights) are run once: every team meets the same keyed episodes, so their results are equal.
+        """
         ctrl = controllers.as_batch()
+        first, index = distinct_teams(ctrl)
+        if len(first) < ctrl.w_ih.shape[0]:
+            ctrl = TeamControllers(*(np.ascontiguousarray(getattr(ctrl, f)[first]) for f in CONTROLLER_FIELDS))
         n = ctrl.w_ih.shape[0]
         sim = self._sim(n)
         keys = self.episode_keys(generation)
@@ -100,7 +129,7 @@ class TeamEvaluator:
             for e in range(len(keys)):
                 fit += fits[e]
             fit = fit / len(keys)
-        return fit, solved / len(keys)
+        return fit[index], solved[index] / len(keys)
 
     def evaluate(self, genomes: Sequence, generation: int = 0) -> Evaluation:
         controllers = self.decode(genomes)

@@ -13,8 +13,11 @@ from dataclasses import dataclass
 from functools import lru_cache
 
 import numpy as np
+from numba import njit
 
 from mahn_envs.controllers import N_INPUTS, TeamControllers
+
+from .batch_cppn import evaluate_plans
 
 MODES = ("situational", "standard")
 THRESHOLD = 0.2
@@ -132,7 +135,101 @@ def _normalise(columns: list[np.ndarray]) -> list[np.ndarray]:
 
 
 def decode_outputs(outputs: np.ndarray, layout: QueryLayout, normalise: bool = True) -> TeamControllers:
-    """CPPN outputs (N, Q, 2) of N genomes -> a batch of N team controllers (arrays (N, R, K, ...))."""
+    """CPPN outputs (N, Q, 2) of N genomes -> a batch of N team controllers (arrays (N, R, K, ...)).
+
+    Compiled (`_decode`); `decode_outputs_numpy` is the same rule in array operations, and the tests hold them
+    bit-identical.
+    """
+    if outputs.ndim != 3 or outputs.shape[1:] != (layout.queries.shape[0], 2):
+        raise ValueError(f"outputs must have shape (N, {layout.queries.shape[0]}, 2), got {outputs.shape}")
+    n = outputs.shape[0]
+    R, K, H, n_in = layout.q_ih.shape
+    w_ih = np.empty((n, R, K, H, n_in), dtype=np.float32)
+    w_hh = np.empty((n, R, K, H, H), dtype=np.float32)
+    w_ho = np.empty((n, R, K, 3, H), dtype=np.float32)
+    b_h = np.empty((n, R, K, H), dtype=np.float32)
+    b_o = np.empty((n, R, K, 3), dtype=np.float32)
+    _decode(np.ascontiguousarray(outputs, dtype=np.float32), layout.q_ih, layout.q_hh, layout.q_ho, layout.q_bh,
+            layout.q_bo, normalise, w_ih, w_hh, w_ho, b_h, b_o)
+    return TeamControllers(w_ih, w_hh, w_ho, b_h, b_o)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _weight(o):
+    """`_weights_from_outputs` of one float32 output, in float64 with the same operations."""
+    o64 = np.float64(o)
+    mag = abs(o64)
+    if mag > THRESHOLD:
+        return np.sign(o64) * WEIGHT_RANGE * (mag - THRESHOLD) / (1.0 - THRESHOLD)
+    return 0.0
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _scale(total):
+    return NORMALISED_SUM / total if total > 0 else 1.0
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _scaled(w, pos_scale, neg_scale):
+    if w > 0:
+        return w * pos_scale
+    if w < 0:
+        return w * neg_scale
+    return 0.0
+
+
+@njit(cache=True, error_model="numpy")
+def _decode(outputs, q_ih, q_hh, q_ho, q_bh, q_bo, normalise, w_ih, w_hh, w_ho, b_h, b_o):
+    """`decode_outputs_numpy` per target node: weights, the sums of positive and negative incoming weights in
+    connection order (inputs then hidden sources), the scaling, float32 at the end."""
+    R, K, H, n_in = q_ih.shape
+    row = np.empty(n_in + H)
+    for n in range(outputs.shape[0]):
+        for r in range(R):
+            for k in range(K):
+                for i in range(H):
+                    for j in range(n_in):
+                        q = q_ih[r, k, i, j]
+                        row[j] = _weight(outputs[n, q, 0]) if q >= 0 else 0.0
+                    for m in range(H):
+                        row[n_in + m] = _weight(outputs[n, q_hh[r, k, i, m], 0])
+                    pos_scale = 1.0
+                    neg_scale = 1.0
+                    if normalise:
+                        pos = 0.0
+                        neg = 0.0
+                        for c in range(n_in + H):
+                            w = row[c]
+                            pos = pos + (w if w > 0 else 0.0)
+                            neg = neg + (-w if w < 0 else 0.0)
+                        pos_scale = _scale(pos)
+                        neg_scale = _scale(neg)
+                    for j in range(n_in):
+                        w_ih[n, r, k, i, j] = np.float32(_scaled(row[j], pos_scale, neg_scale))
+                    for m in range(H):
+                        w_hh[n, r, k, i, m] = np.float32(_scaled(row[n_in + m], pos_scale, neg_scale))
+                    b_h[n, r, k, i] = np.float32(WEIGHT_RANGE * np.float64(outputs[n, q_bh[r, k, i], 1]))
+                for o in range(3):
+                    for m in range(H):
+                        row[m] = _weight(outputs[n, q_ho[r, k, o, m], 0])
+                    pos_scale = 1.0
+                    neg_scale = 1.0
+                    if normalise:
+                        pos = 0.0
+                        neg = 0.0
+                        for m in range(H):
+                            w = row[m]
+                            pos = pos + (w if w > 0 else 0.0)
+                            neg = neg + (-w if w < 0 else 0.0)
+                        pos_scale = _scale(pos)
+                        neg_scale = _scale(neg)
+                    for m in range(H):
+                        w_ho[n, r, k, o, m] = np.float32(_scaled(row[m], pos_scale, neg_scale))
+                    b_o[n, r, k, o] = np.float32(WEIGHT_RANGE * np.float64(outputs[n, q_bo[r, k, o], 1]))
+
+
+def decode_outputs_numpy(outputs: np.ndarray, layout: QueryLayout, normalise: bool = True) -> TeamControllers:
+    """`decode_outputs` in array operations: the reference the compiled version is tested against."""
     if outputs.ndim != 3 or outputs.shape[1:] != (layout.queries.shape[0], 2):
         raise ValueError(f"outputs must have shape (N, {layout.queries.shape[0]}, 2), got {outputs.shape}")
     w_out = outputs[..., 0]
@@ -153,5 +250,4 @@ def decode_outputs(outputs: np.ndarray, layout: QueryLayout, normalise: bool = T
 def decode_population(plans: Sequence, mode: str, n_robots: int = 3, normalise: bool = True) -> TeamControllers:
     """Compiled CPPN plans (one per genome) -> a batch of team controllers, one team per genome."""
     layout = query_layout(mode, n_robots)
-    outputs = np.stack([p.evaluate(layout.queries) for p in plans])
-    return decode_outputs(outputs, layout, normalise)
+    return decode_outputs(evaluate_plans(plans, layout.queries), layout, normalise)

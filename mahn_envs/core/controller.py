@@ -12,24 +12,24 @@ column 6 of w_ih is zero).  The same arrays drive the batch core, the PettingZoo
 """
 from __future__ import annotations
 
-import math
-
 import numpy as np
 from llvmlite import ir
 from numba import njit, types
 from numba.extending import intrinsic
 
+from .expf import SIGMOID_SLOPE32, TABLE, expf, sigmoid_8
 from .task import FORWARD, LEFT, NONE, RIGHT
 
-SIGMOID_SLOPE = np.float32(4.9)
+SIGMOID_SLOPE = SIGMOID_SLOPE32  # 4.9 in float32
 
 
 @njit(cache=True, error_model="numpy", inline="always")
 def _sigmoid(x):
-    return np.float32(1.0) / (np.float32(1.0) + np.float32(math.exp(-SIGMOID_SLOPE * x)))
+    """1/(1+e^(-4.9x)) in float32; the exponential is the C library's expf, inlined (see core.expf)."""
+    return np.float32(1.0) / (np.float32(1.0) + expf(-SIGMOID_SLOPE * x))
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def winner_take_all(o0, o1, o2):
     """Forward wins every tie, then left beats right; NaN outputs decide nothing (the original's rule)."""
     if o1 - o0 >= 0 and o1 - o2 >= 0:
@@ -164,11 +164,11 @@ def _hidden_step_9(b, r, k, obs, wt_ih, wt_hh, b_h, hid, tmp, ih_at, hh_at, obs_
     for m in range(9):
         acc += wt_hh[b, r, k, m, 8] * hid[b, r, m]
     tmp[8] = acc
-    for i in range(9):
-        hid[b, r, i] = _sigmoid(tmp[i] + b_h[b, r, k, i])
+    sigmoid_8(hid, hid_at, tmp, 0, b_h, ((b * b_h.shape[1] + r) * b_h.shape[2] + k) * 9, TABLE)
+    hid[b, r, 8] = _sigmoid(tmp[8] + b_h[b, r, k, 8])
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def network_action_9(b, r, obs, rflag_signal, wt_ih, wt_hh, wt_ho, b_h, b_o, hid, out, brain, tmp):
     """`network_action` for 7 inputs and 9 hidden nodes (see `is_size_9`): the same float32 operations in the
     same order, so bit-identical results, in about half the time.
@@ -207,3 +207,45 @@ def network_action_9(b, r, obs, rflag_signal, wt_ih, wt_hh, wt_ho, b_h, b_o, hid
     for q in range(3):
         out[b, r, q] = _sigmoid(tmp[9 + q] + b_o[b, r, k, q])
     return winner_take_all(out[b, r, 0], out[b, r, 1], out[b, r, 2])
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def remembered_action(b, r, obs, rflag_signal, wt_ih, wt_hh, wt_ho, b_h, b_o, hid, out, brain, tmp, prev,
+                      memo_obs, memo):
+    """`network_action`, skipped when it would repeat itself exactly.
+
+    The network is a pure function of (inputs, signal, hidden state, brain).  When the last call left the
+    hidden state where it found it (a fixed point of the two steps, no brain switch) and this call sees the same
+    inputs and signal, it would compute the same hidden state, outputs and action again: those are already in
+    `hid` and `out`, and the action is remembered.  Evolved robots spend much of an episode in such states (open
+    corridors read all-1 inputs).  Per robot, `memo_obs` (R, n_in) float32 holds the inputs of the last call and
+    `memo` (R, 3) int64 (fixed point, signal, action), with memo[r, 0] = 0 before the first call; `prev` is
+    float32 scratch of n_hidden.  Comparisons are exact (==): inputs and hidden values are never -0.0 (the
+    floor and the sigmoid give +0.0), and a NaN never compares equal, so it is always recomputed.
+    """
+    n_in = wt_ih.shape[3]
+    n_hidden = wt_hh.shape[3]
+    if memo[r, 0] == 1 and memo[r, 1] == rflag_signal:
+        same = True
+        for j in range(n_in):
+            if obs[b, r, j] != memo_obs[r, j]:
+                same = False
+        if same:
+            return memo[r, 2]
+    for i in range(n_hidden):
+        prev[i] = hid[b, r, i]
+    k = brain[b, r]
+    if is_size_9(wt_ih):
+        action = network_action_9(b, r, obs, rflag_signal, wt_ih, wt_hh, wt_ho, b_h, b_o, hid, out, brain, tmp)
+    else:
+        action = network_action(b, r, obs, rflag_signal, wt_ih, wt_hh, wt_ho, b_h, b_o, hid, out, brain, tmp)
+    fixed = brain[b, r] == k
+    for i in range(n_hidden):
+        if hid[b, r, i] != prev[i]:
+            fixed = False
+    for j in range(n_in):
+        memo_obs[r, j] = obs[b, r, j]
+    memo[r, 0] = 1 if fixed else 0
+    memo[r, 1] = rflag_signal
+    memo[r, 2] = action
+    return action

@@ -74,7 +74,7 @@ def touches_wall(cx, cy, radius, x1, y1, x2, y2):
     return d1 < radius * radius or d2 < radius * radius
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def touches_any_wall(cx, cy, radius, walls, boxes):
     for w in range(walls.shape[0]):
         if (cx + radius < boxes[w, 0] or cx - radius > boxes[w, 2]
@@ -85,7 +85,7 @@ def touches_any_wall(cx, cy, radius, walls, boxes):
     return False
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def cast_rays(cx, cy, heading, dirs, max_range, walls, boxes, others, n_others, robot_radius, out, cand):
     """Centre-to-hit distance of each ray (max_range when nothing is hit) against walls and other robots.
 
@@ -93,6 +93,14 @@ def cast_rays(cx, cy, heading, dirs, max_range, walls, boxes, others, n_others, 
     `others` holds (x, y) of robots that can be seen; only the first n_others rows are used.  `cand` is an
     int scratch array of at least len(walls) entries (passed in so the hot loop never allocates).
     """
+    cast_rays_trig(cx, cy, math.cos(heading), math.sin(heading), dirs, max_range, walls, boxes, others, n_others,
+                   robot_radius, out, cand)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def cast_rays_trig(cx, cy, ch, sh, dirs, max_range, walls, boxes, others, n_others, robot_radius, out, cand):
+    """`cast_rays` given ch = cos(heading) and sh = sin(heading): the episode loop computes them once per tick
+    for motion and sensing together."""
     n_rays = dirs.shape[0]
     xmin = cx - max_range
     xmax = cx + max_range
@@ -104,8 +112,6 @@ def cast_rays(cx, cy, heading, dirs, max_range, walls, boxes, others, n_others, 
             continue
         cand[n_cand] = w
         n_cand += 1
-    ch = math.cos(heading)
-    sh = math.sin(heading)
     for j in range(n_rays):
         out[j] = max_range
     # Walls outer, rays inner: the ray-independent half of `ray_wall` (the wall's direction, its offset from

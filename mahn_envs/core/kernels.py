@@ -1,13 +1,15 @@
 """Compiled batch loops over episodes.  Thin: every rule lives in core.task and core.controller."""
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numba import njit, prange
 
-from .controller import is_size_9, network_action, network_action_9
+from .controller import remembered_action
 from .rng import CH_ACTION, uniform
-from .task import (E_TICK, F_SIGNAL, H, P_MAXT, X, Y, decide_robot, move_robot, score_tick,
-                   sense_episode, team_fitness)
+from .task import (E_TICK, F_SIGNAL, H, P_MAXT, P_SEE, X, Y, cast_robot_rays, decide_robot, drive_robot, encode_episode,
+                   move_robot, score_tick, sense_episode, team_fitness)
 
 
 @njit(cache=True, error_model="numpy")
@@ -68,17 +70,29 @@ def run_controllers(pose, raw, obs, racc, rflag, goto, est, walls, boxes, dirs, 
     n_ep = pose.shape[0]
     n_robots = pose.shape[1]
     n_ticks = int(params[P_MAXT])
-    size_9 = is_size_9(wt_ih)
+    n_hidden = wt_hh.shape[3]
+    see = params[P_SEE] > 0.5
     # Scratch allocated here, not in the loop body: arrays from outside the parallel loop reach its body
     # without a reference count (numba passes them as plain pointers), so the per-call reference counting of
     # the functions they go to is a null test instead of an atomic update.
     others_all = np.empty((n_ep, n_robots, 2), dtype=np.float64)
     cand_all = np.empty((n_ep, walls.shape[0]), dtype=np.int64)
-    tmp_all = np.empty((n_ep, wt_hh.shape[3] + 3), dtype=np.float32)
+    tmp_all = np.empty((n_ep, n_hidden + 3), dtype=np.float32)
+    prev_all = np.empty((n_ep, n_hidden), dtype=np.float32)
+    memo_obs_all = np.empty((n_ep, n_robots, wt_ih.shape[3]), dtype=np.float32)
+    memo_all = np.zeros((n_ep, n_robots, 3), dtype=np.int64)
+    # per robot: cos, sin of the heading `at[r, 0]`; rays cast from (at[r, 1], at[r, 2]) with heading at[r, 3]
+    trig_all = np.empty((n_ep, n_robots, 2), dtype=np.float64)
+    at_all = np.full((n_ep, n_robots, 4), np.nan)
     for b in prange(n_ep):
         others = others_all[b]
         cand = cand_all[b]
         tmp_h = tmp_all[b]
+        prev = prev_all[b]
+        memo_obs = memo_obs_all[b]
+        memo = memo_all[b]
+        trig = trig_all[b]
+        at = at_all[b]
         if record:
             for r in range(n_robots):
                 traj[b, 0, r, 0] = pose[b, r, X]
@@ -90,17 +104,24 @@ def run_controllers(pose, raw, obs, racc, rflag, goto, est, walls, boxes, dirs, 
             for r in range(n_robots):
                 # Numba's cache keys on this file's text only: after changing a called function (e.g. the
                 # network), change this file too, or cached episodes keep running the old compiled code.
-                if size_9:
-                    action = network_action_9(b, r, obs, rflag[b, r, F_SIGNAL], wt_ih, wt_hh, wt_ho, b_h, b_o,
-                                              hid, out, brain, tmp_h)
-                else:
-                    action = network_action(b, r, obs, rflag[b, r, F_SIGNAL], wt_ih, wt_hh, wt_ho, b_h, b_o,
-                                            hid, out, brain, tmp_h)
+                # The task's functions are inlined here (inline="always"): as calls, each one paid a reference
+                # count round trip per array argument, which cost more than half of the episode's time.
+                action = remembered_action(b, r, obs, rflag[b, r, F_SIGNAL], wt_ih, wt_hh, wt_ho, b_h, b_o, hid,
+                                           out, brain, tmp_h, prev, memo_obs, memo)
                 decide_robot(b, r, action, tick, pose, raw, params, seed, keys[b])
                 if record:
                     traj[b, tick, r, 3] = action
+            # Motion and sensing share one cos and sin of each heading (sensing sees the heading of the move),
+            # kept while the heading stays the same; rays are cast again only when a robot has moved (or others
+            # can be seen).  Pure functions of the same arguments: the results are the same numbers.  Zero is
+            # never taken as unchanged (sin(-0.0) is -0.0), nor NaN (never equal).
             for r in range(n_robots):
-                move_robot(b, r, pose, racc, params, walls, boxes)
+                h = pose[b, r, H]
+                if not (h == at[r, 0] and h != 0.0):
+                    trig[r, 0] = math.cos(h)
+                    trig[r, 1] = math.sin(h)
+                    at[r, 0] = h
+                drive_robot(b, r, trig[r, 0], trig[r, 1], pose, racc, params, walls, boxes)
             score_tick(b, tick, pose, racc, rflag, goto, est, pois, home, params)
             if record:
                 for r in range(n_robots):
@@ -108,8 +129,18 @@ def run_controllers(pose, raw, obs, racc, rflag, goto, est, walls, boxes, dirs, 
                     traj[b, tick, r, 1] = pose[b, r, Y]
                     traj[b, tick, r, 2] = pose[b, r, H]
             if tick < n_ticks:
-                sense_episode(b, tick + 1, pose, raw, obs, rflag, walls, boxes, dirs, params, seed, keys[b],
-                              others, cand)
+                for r in range(n_robots):
+                    x = pose[b, r, X]
+                    y = pose[b, r, Y]
+                    h = pose[b, r, H]
+                    if see or not (x == at[r, 1] and y == at[r, 2] and h == at[r, 3] and x != 0.0 and y != 0.0
+                                   and h != 0.0):
+                        cast_robot_rays(b, r, trig[r, 0], trig[r, 1], pose, raw, walls, boxes, dirs, params, others,
+                                        cand)
+                        at[r, 1] = x
+                        at[r, 2] = y
+                        at[r, 3] = h
+                encode_episode(b, tick + 1, raw, obs, rflag, params, seed, keys[b])
         fit, ok = team_fitness(b, pose, racc, rflag, goto, est, home)
         fitness[b] = fit
         solved[b] = ok

@@ -47,7 +47,7 @@ def _mix(z):
     return z ^ (z >> _S31)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def uniform(seed, episode, tick, robot, channel):
     """A float in [0, 1) determined by its coordinates (splitmix64 finaliser over a combined key)."""
     z = _mix(np.uint64(seed) + _GOLDEN)

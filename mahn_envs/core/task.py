@@ -21,7 +21,7 @@ import math
 import numpy as np
 from numba import njit
 
-from .geometry import cast_rays, touches_any_wall
+from .geometry import cast_rays_trig, touches_any_wall
 from .rng import CH_HEADING, CH_SENSOR, CH_SPEED, CH_TURN, uniform
 
 # indices into the float64 parameter vector built by TaskParams.vector()
@@ -48,7 +48,7 @@ MOVED_MIN = 5.0
 SOLVED_BONUS = 100.0
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def encode_episode(b, tick, raw, obs, rflag, params, seed, key):
     """Turn ray distances into inputs: (d - 6.5)/10.16 in float32, noise, capped at 1, floored to 0 at <= 0.25."""
     f_radius = np.float32(params[P_RADIUS])
@@ -68,29 +68,33 @@ def encode_episode(b, tick, raw, obs, rflag, params, seed, key):
         obs[b, r, 6] = np.float32(rflag[b, r, F_SIGNAL])
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def sense_episode(b, tick, pose, raw, obs, rflag, walls, boxes, dirs, params, seed, key, others, cand):
     """Cast every robot's rays and encode them as the inputs of the coming tick.
 
     `others` (R, 2) and `cand` (W,) are scratch arrays, passed in so the hot loop never allocates.
     """
-    n_robots = pose.shape[1]
-    radius = params[P_RADIUS]
-    see = params[P_SEE] > 0.5
-    for r in range(n_robots):
-        n_others = 0
-        if see:
-            for q in range(n_robots):
-                if q != r:
-                    others[n_others, 0] = pose[b, q, X]
-                    others[n_others, 1] = pose[b, q, Y]
-                    n_others += 1
-        cast_rays(pose[b, r, X], pose[b, r, Y], pose[b, r, H], dirs, params[P_RANGE], walls, boxes,
-                  others, n_others, radius, raw[b, r], cand)
+    for r in range(pose.shape[1]):
+        cast_robot_rays(b, r, math.cos(pose[b, r, H]), math.sin(pose[b, r, H]), pose, raw, walls, boxes, dirs,
+                        params, others, cand)
     encode_episode(b, tick, raw, obs, rflag, params, seed, key)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
+def cast_robot_rays(b, r, ch, sh, pose, raw, walls, boxes, dirs, params, others, cand):
+    """Robot r's ray distances into raw[b, r], given ch, sh = cos and sin of its heading."""
+    n_others = 0
+    if params[P_SEE] > 0.5:
+        for q in range(pose.shape[1]):
+            if q != r:
+                others[n_others, 0] = pose[b, q, X]
+                others[n_others, 1] = pose[b, q, Y]
+                n_others += 1
+    cast_rays_trig(pose[b, r, X], pose[b, r, Y], ch, sh, dirs, params[P_RANGE], walls, boxes, others, n_others,
+                   params[P_RADIUS], raw[b, r], cand)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
 def decide_robot(b, r, action, tick, pose, raw, params, seed, key):
     """Apply an action (and, for forward, the collision-avoidance reflex) to heading and velocity.
 
@@ -139,14 +143,20 @@ def decide_robot(b, r, action, tick, pose, raw, params, seed, key):
     return corrected
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def move_robot(b, r, pose, racc, params, walls, boxes):
     """Drive straight for one tick; on touching a wall go back to where the tick started (no sliding)."""
+    return drive_robot(b, r, math.cos(pose[b, r, H]), math.sin(pose[b, r, H]), pose, racc, params, walls, boxes)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def drive_robot(b, r, ch, sh, pose, racc, params, walls, boxes):
+    """`move_robot` given ch, sh = cos and sin of the heading (shared with sensing in the episode loop)."""
     ox = pose[b, r, X]
     oy = pose[b, r, Y]
     d = pose[b, r, V] * params[P_DT]
-    nx = ox + math.cos(pose[b, r, H]) * d
-    ny = oy + math.sin(pose[b, r, H]) * d
+    nx = ox + ch * d
+    ny = oy + sh * d
     if touches_any_wall(nx, ny, params[P_RADIUS], walls, boxes):
         racc[b, r, R_COLL] += 1.0
         return False
@@ -160,7 +170,7 @@ def _manhattan(x, y, px, py):
     return abs(x - px) + abs(y - py)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def give_signal(b, pose, racc, rflag, est, pois, home):
     """The come-home event: remember where everyone is and whether every POI is covered."""
     n_robots = pose.shape[1]
@@ -180,7 +190,7 @@ def give_signal(b, pose, racc, rflag, est, pois, home):
     est[b, E_SWITCHED] = 1
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def score_tick(b, tick, pose, racc, rflag, goto, est, pois, home, params):
     """Fitness bookkeeping after motion; samples every `period` ticks, the signal at `signal_tick`."""
     period = int(params[P_PERIOD])
@@ -208,7 +218,7 @@ def score_tick(b, tick, pose, racc, rflag, goto, est, pois, home, params):
             racc[b, i, R_END] += max(0.0, (racc[b, i, R_ORIG_DIST] - d2) / RETURN_SCALE)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def team_fitness(b, pose, racc, rflag, goto, est, home):
     """The score if the episode ended now: 1e-6 + patrol + return credit, the penalties, +100 if solved."""
     n_robots = pose.shape[1]

@@ -5,6 +5,7 @@ fast network (`network_action_9`), the wall-outer ray cast and the fused episode
 exact equality against plain formulations of the same rules.
 """
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -185,3 +186,56 @@ def test_fused_episode_loop_matches_step_by_step_reference(brains, noisy):
     assert np.array_equal(fast.trajectories, traj)
     assert np.array_equal(fast.fitness, sim.prev_fit)
     assert np.array_equal(fast.collisions, sim.racc[:, :, 3].astype(np.int64))
+
+
+CHAMPIONS = sorted((Path(__file__).parents[2] / "docs" / "results" / "experiment" / "champions").glob("*.json"))
+
+
+def _champion_batch(kind: str):
+    from mahn_evo.champion import Champion
+
+    champs = [Champion.load(p) for p in CHAMPIONS if p.name.startswith(kind)]
+    teams = [c.controllers for c in champs]
+    ctrl = type(teams[0])(*(np.stack([getattr(t, f) for t in teams]) for f in ("w_ih", "w_hh", "w_ho", "b_h", "b_o")))
+    return champs, ctrl
+
+
+def test_published_champions_keep_their_exact_fitness():
+    """The experiment's champions (docs/results) were scored before the episode loop's memos existed."""
+    assert len(CHAMPIONS) >= 10
+    for kind in ("situational", "standard"):
+        champs, ctrl = _champion_batch(kind)
+        res = BatchSim("plus", len(champs)).run_controllers(ctrl, seed=0)
+        assert res.fitness.tolist() == [c.fitness for c in champs]
+        assert res.solved.tolist() == [c.solved for c in champs]
+
+
+@pytest.mark.parametrize("kind", ["situational", "standard"])
+@pytest.mark.parametrize("noisy", [False, True])
+def test_memos_match_the_step_by_step_reference_with_evolved_teams(kind, noisy):
+    """Evolved teams sit in the states the memos skip (network fixed points, straight runs, robots at rest), which
+    random teams rarely reach: whole episodes, every pose and action, against the reference without memos."""
+    params = TaskParams(**(dict(sensor_noise=5.0, effector_noise=10.0, heading_noise=0.005, start_jitter_xy=2.0,
+                                start_jitter_heading=0.1) if noisy else {}))
+    champs, ctrl = _champion_batch(kind)
+    n = len(champs)
+    fast = BatchSim("plus", n, params).run_controllers(ctrl, seed=7, record=True)
+    sim = BatchSim("plus", n, params)
+    sim.reset(seed=7)
+    traj = np.zeros_like(fast.trajectories)
+    traj[:, 0, :, :3] = sim.pose[:, :, :3]
+    traj[:, 0, :, 3] = -1.0
+    state = (sim.pose, sim.raw, sim.obs, sim.racc, sim.rflag, sim.goto, sim.est, sim.prev_fit, sim.rewards, sim.solved,
+             sim._walls, sim._boxes, sim._dirs, sim._pois, sim._home, sim._pvec, sim.seed, sim.keys, sim._others,
+             sim._cand)
+    hid = np.zeros((n, 3, 9), np.float32)
+    out = np.zeros((n, 3, 3), np.float32)
+    brain = np.zeros((n, 3), np.int64)
+    _reference_episodes(state, transposed(ctrl), hid, out, brain, params.max_cycles, traj)
+    assert np.array_equal(fast.trajectories, traj)
+    assert np.array_equal(fast.fitness, sim.prev_fit)
+    assert np.array_equal(fast.collisions, sim.racc[:, :, 3].astype(np.int64))
+    if not noisy:  # the memos had much to skip: robots at rest (same rays), straight runs (same heading)
+        at_rest = np.all(traj[:, 1:, :, :3] == traj[:, :-1, :, :3], axis=-1)
+        straight = traj[:, 1:, :, 2] == traj[:, :-1, :, 2]
+        assert at_rest.mean() > 0.1 and straight.mean() > 0.5

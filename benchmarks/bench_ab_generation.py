@@ -1,0 +1,160 @@
+"""A/B seconds per training generation: this checkout against a git revision, interleaved, in one run.
+
+The revision's `mahn_envs` and `mahn_evo` are unpacked (git archive) into a temporary folder.  One run folder is
+trained with this checkout up to --skip generations (so the timed generations are evolved, not random, teams),
+then worker processes alternate between the two versions (A B B A ...): each resumes a copy of that run folder
+and times --generations generations split into decode (NEAT ask + CPPN decoding), evaluate, reproduce (NEAT
+tell) and checkpoint, exactly as the trainer runs them.  Every worker must produce the same fitness values (the
+optimisations are required to be bit-identical); the comparison uses each version's fastest worker and prints
+the spread over workers, since the machine is shared.  NUMBA_NUM_THREADS sets the cores of each worker.
+
+Usage: python benchmarks/bench_ab_generation.py [--rev dafc457] [--pop 500 2000] [--threads 1 2] [--repeats 3]
+       [--generations 4] [--skip 20] [--init iros2011] [--episodes 1] [--noise none|generalization]
+"""
+from __future__ import annotations
+
+import argparse
+import io
+import json
+import os
+import shutil
+import subprocess
+import sys
+import tarfile
+import tempfile
+
+import numpy as np
+
+ROOT = os.path.abspath(os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
+
+# Runs inside a worker process, with the version's folder first on sys.path.
+WORKER = r"""
+import hashlib, json, shutil, sys, tempfile, time
+code, run_dir, n_gen = sys.argv[1], sys.argv[2], int(sys.argv[3])
+sys.path.insert(0, code)
+import numpy as np
+import mahn_evo
+assert mahn_evo.__file__.startswith(code), (mahn_evo.__file__, code)
+from mahn_evo.config import TrainConfig
+from mahn_evo.files import read_versioned_json
+from mahn_evo.trainer import Trainer
+with tempfile.TemporaryDirectory() as d:
+    shutil.copytree(run_dir, d, dirs_exist_ok=True)
+    cfg = TrainConfig.from_saved(read_versioned_json(f"{d}/config.json", "config"))
+    tr = Trainer(cfg.with_overrides(generations=10**6), d, resume=True)
+    tr.evaluator.score(tr.evaluator.decode(tr.population.ask()[:4]))  # load the compiled code
+    parts = {"decode": [], "evaluate": [], "reproduce": [], "checkpoint": []}
+    digest = hashlib.sha256()
+    for _ in range(n_gen):
+        t0 = time.perf_counter()
+        genomes = tr.population.ask()
+        controllers = tr.evaluator.decode(genomes)
+        t1 = time.perf_counter()
+        fitness, solved = tr.evaluator.score(controllers)
+        t2 = time.perf_counter()
+        tr.population.tell(fitness)
+        t3 = time.perf_counter()
+        tr._checkpoint()
+        t4 = time.perf_counter()
+        for k, v in zip(parts, (t1 - t0, t2 - t1, t3 - t2, t4 - t3)):
+            parts[k].append(v)
+        digest.update(np.ascontiguousarray(fitness, dtype=np.float64).tobytes())
+        digest.update(np.ascontiguousarray(solved, dtype=np.float64).tobytes())
+print(json.dumps({"parts": parts, "digest": digest.hexdigest()}))
+"""
+
+
+def unpack_revision(rev: str, into: str) -> str:
+    """`mahn_envs` and `mahn_evo` as of `rev`, in folder `into` (returned)."""
+    data = subprocess.run(["git", "-C", ROOT, "archive", rev, "mahn_envs", "mahn_evo"], check=True,
+                          capture_output=True).stdout
+    with tarfile.open(fileobj=io.BytesIO(data)) as tar:
+        tar.extractall(into)
+    return into
+
+
+def make_run(folder: str, pop: int, skip: int, init: str, episodes: int, noise: str) -> None:
+    """Train `skip` generations with this checkout into `folder` (the starting point of every worker)."""
+    sys.path.insert(0, ROOT)
+    from mahn_evo.config import TrainConfig
+    from mahn_evo.evaluate import task_params
+    from mahn_evo.trainer import Trainer
+
+    cfg = TrainConfig(init=init, episodes=episodes, generations=max(skip, 1),
+                      task=task_params(noise)).with_overrides(pop=pop)
+    tr = Trainer(cfg, folder)
+    for _ in range(skip):
+        tr.step()
+    tr._write_log()
+    tr._checkpoint()
+
+
+def run_worker(code: str, run_dir: str, generations: int, threads: int) -> dict:
+    env = dict(os.environ, NUMBA_NUM_THREADS=str(threads), OMP_NUM_THREADS="1", OPENBLAS_NUM_THREADS="1")
+    out = subprocess.run([sys.executable, "-c", WORKER, code, run_dir, str(generations)], env=env, check=True,
+                         capture_output=True, text=True, cwd=code)
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def measure(versions: dict[str, str], run_dir: str, generations: int, threads: int, repeats: int) -> dict:
+    """Per version: seconds per generation of each worker (mean over its generations) and its parts."""
+    names = list(versions)
+    got: dict[str, list[dict]] = {k: [] for k in names}
+    for i in range(repeats):
+        for k in (names if i % 2 == 0 else names[::-1]):
+            got[k].append(run_worker(versions[k], run_dir, generations, threads))
+    digests = {w["digest"] for ws in got.values() for w in ws}
+    if len(digests) != 1:
+        raise SystemExit(f"fitness differs between versions or workers ({len(digests)} different results)")
+    result = {}
+    for k, ws in got.items():
+        totals = [float(np.mean(np.sum([w["parts"][p] for p in w["parts"]], axis=0))) for w in ws]
+        best = int(np.argmin(totals))
+        result[k] = {"totals": totals, "parts": {p: float(np.mean(v)) for p, v in ws[best]["parts"].items()}}
+    return result
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--rev", default="dafc457")
+    ap.add_argument("--pop", type=int, nargs="+", default=[500])
+    ap.add_argument("--threads", type=int, nargs="+", default=[2])
+    ap.add_argument("--repeats", type=int, default=3, help="workers per version and setting")
+    ap.add_argument("--generations", type=int, default=4, help="timed generations per worker")
+    ap.add_argument("--skip", type=int, default=20, help="generations trained before timing")
+    ap.add_argument("--init", default="iros2011")
+    ap.add_argument("--episodes", type=int, default=1)
+    ap.add_argument("--noise", default="none", help="task noise preset of mahn_evo.evaluate (none, generalization)")
+    args = ap.parse_args()
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        versions = {args.rev: unpack_revision(args.rev, os.path.join(tmp, "rev")), "checkout": ROOT}
+        for pop in args.pop:
+            run_dir = os.path.join(tmp, f"run{pop}")
+            make_run(run_dir, pop, args.skip, args.init, args.episodes, args.noise)
+            for threads in args.threads:
+                res = measure(versions, run_dir, args.generations, threads, args.repeats)
+                rows.append((pop, threads, res))
+                print_row(args, pop, threads, res)
+            shutil.rmtree(run_dir)
+    print(f"\nsummary ({args.init}, episodes {args.episodes}, noise {args.noise}; seconds per generation, fastest "
+          f"worker, [spread over {args.repeats} workers]):")
+    print(f"{'population':>10} {'threads':>7} {args.rev:>22} {'checkout':>22} {'speed-up':>9}")
+    for pop, threads, res in rows:
+        a, b = res[args.rev]["totals"], res["checkout"]["totals"]
+        print(f"{pop:>10} {threads:>7} {min(a):8.3f} [{min(a):.3f}-{max(a):.3f}] {min(b):8.3f} "
+              f"[{min(b):.3f}-{max(b):.3f}] {min(a) / min(b):8.2f}x")
+
+
+def print_row(args, pop: int, threads: int, res: dict) -> None:
+    print(f"population {pop}, {threads} thread(s), generations {args.skip}..{args.skip + args.generations - 1}, "
+          "fitness identical in every worker")
+    for k, r in res.items():
+        parts = "  ".join(f"{p} {v:.3f}" for p, v in r["parts"].items())
+        print(f"  {k:10s} {min(r['totals']):.3f} s/generation ({parts}); workers: "
+              + " ".join(f"{t:.3f}" for t in r["totals"]))
+    print(f"  speed-up: {min(res[args.rev]['totals']) / min(res['checkout']['totals']):.2f}x", flush=True)
+
+
+if __name__ == "__main__":
+    main()
