@@ -73,7 +73,8 @@ def rl_curve(run_dir: "str | Path") -> Curve:
 
 
 def evo_curve(run_dir: "str | Path", ticks: int = TICKS, robots: int = ROBOTS) -> Curve:
-    """An `mahn-evo train` run: `log.csv` (generation, evaluations, best_fitness, solved) + `summary.json`."""
+    """An `mahn-evo train` run (or a `mahn-baselines cmaes` run): `log.csv` (generation, evaluations,
+    best_fitness, solved) + `summary.json` (`mode`, and `method` where it is not HyperNEAT)."""
     run_dir = Path(run_dir)
     rows = read_csv(run_dir / "log.csv")
     if not rows:
@@ -86,7 +87,9 @@ def evo_curve(run_dir: "str | Path", ticks: int = TICKS, robots: int = ROBOTS) -
     mode = summary.get("mode", "unknown")
     b, f, s = _best_so_far([float(r["evaluations"]) * ticks * robots for r in rows],
                            [float(r["best_fitness"]) for r in rows], [_truthy(r["solved"]) for r in rows])
-    return Curve(f"hyperneat_{mode}", summary.get("seed", run_dir.name), b, f, s, str(run_dir),
+    # HyperNEAT runs are named by their mode; other evolution runs (direct-encoding CMA-ES) name themselves
+    method = summary.get("method") or f"hyperneat_{mode}"
+    return Curve(method, summary.get("seed", run_dir.name), b, f, s, str(run_dir),
                  holds_after_end=bool(summary.get("solved")) and bool(s[-1]))
 
 
