@@ -83,3 +83,14 @@ def test_config_rejects_bad_settings():
         CMAConfig(popsize=1)
     with pytest.raises(ValueError, match="sigma0"):
         CMAConfig(sigma0=0.0)
+
+
+def test_cli_cmaes_starts_then_resumes_with_one_command(tmp_path, capsys):
+    from baselines.cli import main
+
+    args = ["cmaes", "--mode", "standard", "--popsize", "4", "--seed", "2", "--out", str(tmp_path / "run"),
+            "--resume", "--max-cycles", "60", "--signal-tick", "30"]
+    assert main(args + ["--generations", "2"]) == 0
+    assert main(args + ["--generations", "3"]) == 0
+    summary = json.loads((tmp_path / "run" / "summary.json").read_text())
+    assert summary["generations"] == 3 and summary["method"] == "cmaes_direct_standard"

@@ -143,3 +143,16 @@ def test_config_rejects_bad_settings():
         LeanConfig(method="ppo_ff", steps=1, gamma=0.0)
     with pytest.raises(ValueError, match="unknown"):
         LeanConfig.from_dict({"method": "ppo_ff", "steps": 1, "colour": 3})
+
+
+def test_cli_lean_starts_then_resumes_with_one_command(tmp_path, capsys):
+    from baselines.cli import main
+
+    args = ["lean", "--method", "ppo_ff", "--seed", "1", "--out", str(tmp_path / "run"), "--resume",
+            "--max-cycles", "60", "--signal-tick", "30", "--hyperparams", '{"n_episodes": 2, "hidden": 8}']
+    assert main(args[:3] + ["--steps", "360"] + args[3:]) == 0  # no run there yet: starts it
+    assert main(args[:3] + ["--steps", "7.2e2"] + args[3:]) == 0  # continues it to 2 updates
+    out = capsys.readouterr().out
+    assert '"steps": 720' in out
+    assert main(["lean", "--method", "ppo_ff", "--steps", "360", "--out", str(tmp_path / "x"),
+                 "--hyperparams", '{"colour": 1}']) == 2
