@@ -11,8 +11,11 @@ from __future__ import annotations
 
 import argparse
 import os
+import sys
 import tempfile
 import time
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))  # this checkout's code
 
 TARGETS = {"ppo_ff": 60_000, "ippo_gru": 20_000, "mappo_gru": 20_000}
 
