@@ -44,7 +44,7 @@ def suggest(trial: Any, method: str) -> dict[str, Any]:
     p: dict[str, Any] = {
         "lr": trial.suggest_float("lr", 1e-4, 3e-3, log=True),
         "gamma": trial.suggest_categorical("gamma", [0.999, 0.9995, 1.0]),
-        "gae_lambda": trial.suggest_float("gae_lambda", 0.9, 0.999),
+        "gae_lambda": trial.suggest_float("gae_lambda", 0.95, 1.0),
         "ent_coef": trial.suggest_float("ent_coef", 1e-4, 3e-2, log=True),
         "epochs": trial.suggest_int("epochs", 2, 8),
         "minibatches": trial.suggest_categorical("minibatches", [1, 2, 4]),
