@@ -69,7 +69,10 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--steps", type=int, default=None,
                    help="RL budget in robot-steps (default: the largest evolution budget among --evo-runs)")
     c.add_argument("--no-train", action="store_true", help="only compare runs that already exist")
-    c.add_argument("--evo-runs", nargs="*", type=Path, default=[], help="mahn-evo train output directories")
+    c.add_argument("--evo-runs", nargs="*", type=Path, default=[],
+                   help="mahn-evo train (or mahn-baselines cmaes) output directories")
+    c.add_argument("--rl-runs", nargs="*", type=Path, default=[],
+                   help="more finished RL run directories to include as they are (e.g. mahn-baselines lean runs)")
     c.add_argument("--out", type=Path, default=Path("docs/results/baselines"))
     c.add_argument("--points", type=int, default=12, help="budget points in the table")
     _add_task_args(c)
@@ -188,7 +191,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
                 if steps is None:
                     raise ValueError("give --steps (or --evo-runs to match their budget)")
                 rl = train_missing(a.algos, a.seeds, steps, a.runs_dir, _task_overrides(a))
-            payload = compare(rl, a.evo_runs, a.out, points=a.points)
+            payload = compare(list(rl) + list(a.rl_runs), a.evo_runs, a.out, points=a.points)
             from .compare import markdown_table
 
             print(markdown_table(payload["table"]))

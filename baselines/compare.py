@@ -120,18 +120,34 @@ def aggregate(curves: Sequence[Curve], budgets: np.ndarray) -> list[dict[str, An
     return rows
 
 
+#: the method the solved rates are tested against (Fisher's exact test), when it is in the comparison
+REFERENCE_METHOD = "hyperneat_situational"
+
+
 def final_table(curves: Sequence[Curve]) -> list[dict[str, Any]]:
-    """Per method at each run's full budget: seeds, budget, fitness mean/std/max, solved rate."""
+    """Per method at each run's full budget: seeds, budget, fitness mean/std/max, IQM with a 95% bootstrap
+    interval, solved rate, and Fisher's exact p-value of the solved rate against `REFERENCE_METHOD`."""
+    from .stats import fisher_solved, iqm, iqm_ci
+
     out = []
+    finals = {}
+    for method in sorted({c.method for c in curves}):
+        runs = [c for c in curves if c.method == method]
+        finals[method] = (int(sum(bool(c.solved[-1]) for c in runs)), len(runs))
     for method in sorted({c.method for c in curves}):
         runs = [c for c in curves if c.method == method]
         f = np.array([c.fitness[-1] for c in runs])
         s = np.array([c.solved[-1] for c in runs])
         first = [c.budget[int(np.argmax(c.solved > 0))] for c in runs if np.any(c.solved > 0)]
+        lo, hi = iqm_ci(f)
+        ref = finals.get(REFERENCE_METHOD)
         out.append({"method": method, "runs": len(runs), "budget_robot_steps": int(max(c.budget[-1] for c in runs)),
                     "fitness_mean": round(float(f.mean()), 3), "fitness_std": round(float(f.std()), 3),
-                    "fitness_max": round(float(f.max()), 3), "solved_rate": round(float(s.mean()), 3),
-                    "median_budget_to_solve": int(np.median(first)) if first else ""})
+                    "fitness_max": round(float(f.max()), 3), "fitness_iqm": round(iqm(f), 3),
+                    "fitness_iqm_ci95": f"{lo:.3f}-{hi:.3f}", "solved_rate": round(float(s.mean()), 3),
+                    "median_budget_to_solve": int(np.median(first)) if first else "",
+                    f"fisher_p_vs_{REFERENCE_METHOD}": "" if ref is None or method == REFERENCE_METHOD
+                    else round(fisher_solved(*finals[method], *ref), 4)})
     return out
 
 
