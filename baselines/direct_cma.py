@@ -43,7 +43,7 @@ from mahn_evo.files import atomic_write_csv, atomic_write_json, read_versioned_j
 from mahn_evo.substrate import MODES, WEIGHT_RANGE, query_layout
 
 LOG_HEADER = ["generation", "evaluations", "best_fitness", "mean_fitness", "best_ever", "solved", "n_solved",
-              "sigma", "seconds"]
+              "sigma", "cpu_seconds", "seconds"]
 STOPPING_RULES = ("generations",)
 
 
@@ -147,6 +147,7 @@ class DirectCMA:
         self.best_fitness = -math.inf
         self.first_solved: Optional[int] = None
         self.wall = 0.0
+        self.cpu = 0.0  #: CPU-seconds of this process (all threads): the compute-matched budget axis
         ckpt = self.out / "checkpoint.json"
         if resume:
             self._resume(ckpt)
@@ -184,7 +185,7 @@ class DirectCMA:
         state = {"config": self.cfg.to_dict(), "generation": self.generation, "cma_version": self.cma.__version__,
                  "digest": _digest(self.es), "best_fitness": None if not math.isfinite(self.best_fitness)
                  else self.best_fitness, "first_solved": self.first_solved, "wall_seconds": self.wall,
-                 "log": self.rows}
+                 "cpu_seconds": self.cpu, "log": self.rows}
         atomic_write_json(self.out / "checkpoint.json", versioned("cma_checkpoint", state))
 
     def _resume(self, ckpt: Path) -> None:
@@ -213,11 +214,16 @@ class DirectCMA:
         if _digest(self.es) != data["digest"]:
             raise ValueError(f"replaying {str(path)!r} did not rebuild the saved CMA-ES state (another numpy / "
                              "BLAS build?); the run cannot be continued bit-identically here")
-        self.history = [hist[g] for g in range(n)]
-        self.best_fitness = -math.inf if data["best_fitness"] is None else float(data["best_fitness"])
-        self.first_solved = data["first_solved"]
-        self.wall = float(data["wall_seconds"])
-        self.rows = data["log"]
+        try:
+            self.history = [hist[g] for g in range(n)]
+            self.best_fitness = -math.inf if data["best_fitness"] is None else float(data["best_fitness"])
+            self.first_solved = data["first_solved"]
+            self.wall = float(data["wall_seconds"])
+            self.cpu = float(data["cpu_seconds"])
+            self.rows = data["log"]
+        except (KeyError, TypeError, ValueError) as exc:
+            raise ValueError(f"checkpoint file {str(ckpt)!r} is damaged or from another format (missing or bad "
+                             f"field: {exc})") from exc
         if saved["generations"] != asked["generations"]:
             atomic_write_json(self.out / "config.json", versioned("cma_config", {**asked, "method": self.method}))
 
@@ -227,7 +233,7 @@ class DirectCMA:
 
     # ------------------------------------------------------------------ loop
     def step(self) -> list:
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         gen = self.generation
         xs = self.es.ask()
         self._last_asked = xs
@@ -246,9 +252,10 @@ class DirectCMA:
             self.first_solved = gen
         seconds = time.perf_counter() - t0
         self.wall += seconds
+        self.cpu += time.process_time() - c0
         row = [gen, (gen + 1) * self.cfg.popsize * self.cfg.episodes, float(fitness[best]), float(fitness.mean()),
                float(self.best_fitness), bool(solved_mask[best]), int(solved_mask.sum()), float(self.es.sigma),
-               round(seconds, 4)]
+               round(self.cpu, 3), round(seconds, 4)]
         self.rows.append(row)
         return row
 
@@ -272,7 +279,7 @@ class DirectCMA:
                    "solved": self.first_solved is not None, "first_solved_generation": self.first_solved,
                    "evaluations": self.rows[-1][1] if self.rows else 0,
                    "robot_steps": (self.rows[-1][1] if self.rows else 0) * self.cfg.max_cycles * self.n_robots,
-                   "wall_seconds": round(self.wall, 3)}
+                   "wall_seconds": round(self.wall, 3), "cpu_seconds": round(self.cpu, 3)}
         atomic_write_json(self.out / "summary.json", summary)
         return summary
 

@@ -40,8 +40,8 @@ from .lean_nets import LeanTeamPolicy, build_networks, sample_actions, stack_fra
 from .protocols import run_protocol
 from .vec_env import PatrolReturnVecEnv
 
-TRAIN_FIELDS = ("update", "steps", "wall_time", "fitness_mean", "fitness_max", "solved_rate", "policy_loss",
-                "value_loss", "entropy", "approx_kl", "clip_fraction", "robot_steps_per_second")
+TRAIN_FIELDS = ("update", "steps", "wall_time", "cpu_seconds", "fitness_mean", "fitness_max", "solved_rate",
+                "policy_loss", "value_loss", "entropy", "approx_kl", "clip_fraction", "robot_steps_per_second")
 
 
 class Rollout:
@@ -135,6 +135,7 @@ class LeanPPO:
         self.value_norm = ValueNorm()
         self.update = 0
         self.wall = 0.0
+        self.cpu = 0.0  #: CPU-seconds of this process (all threads): the compute-matched budget axis
         self.best = -math.inf
         self.eval_rows: list[dict[str, Any]] = []
         self.train_rows: list[dict[str, Any]] = []
@@ -165,7 +166,7 @@ class LeanPPO:
         state = {"config": self.cfg.to_dict(), "update": self.update, "steps": self.steps, "weights": name,
                  "rng": self.rng.bit_generator.state, "value_norm": self.value_norm.state(),
                  "wall_seconds": self.wall,
-                 "best": None if not math.isfinite(self.best) else self.best,
+                 "cpu_seconds": self.cpu, "best": None if not math.isfinite(self.best) else self.best,
                  "eval_rows": self.eval_rows, "train_rows": self.train_rows}
         atomic_write_json(self.out / "checkpoint.json", versioned("lean_checkpoint", state))
         if self.weights_file is not None and self.weights_file != name:
@@ -189,14 +190,19 @@ class LeanPPO:
             self.optim.load_state_dict(weights["optim"])
         except (OSError, RuntimeError, KeyError, EOFError, pickle.UnpicklingError) as exc:
             raise ValueError(f"checkpoint weights {str(path)!r} are missing or damaged ({exc})") from exc
-        self.weights_file = data["weights"]
-        self.rng.bit_generator.state = data["rng"]
-        self.value_norm.load(data["value_norm"])
-        self.update = int(data["update"])
-        self.wall = float(data["wall_seconds"])
-        self.best = -math.inf if data["best"] is None else float(data["best"])
-        self.eval_rows = data["eval_rows"]
-        self.train_rows = data["train_rows"]
+        try:
+            self.weights_file = data["weights"]
+            self.rng.bit_generator.state = data["rng"]
+            self.value_norm.load(data["value_norm"])
+            self.update = int(data["update"])
+            self.wall = float(data["wall_seconds"])
+            self.cpu = float(data["cpu_seconds"])
+            self.best = -math.inf if data["best"] is None else float(data["best"])
+            self.eval_rows = data["eval_rows"]
+            self.train_rows = data["train_rows"]
+        except (KeyError, TypeError, ValueError) as exc:
+            raise ValueError(f"checkpoint file {str(ckpt)!r} is damaged or from another format (missing or bad "
+                             f"field: {exc})") from exc
         if any(saved.get(k) != asked[k] for k in STOPPING_RULES):
             atomic_write_json(self.out / "config.json", versioned("lean_config", asked))
 
@@ -360,7 +366,7 @@ class LeanPPO:
     def evaluate(self) -> dict[str, Any]:
         """Greedy policy, one episode per eval map (noise-free task: one episode is exact)."""
         row: dict[str, Any] = {"steps": self.steps, "episodes_trained": self.update * self.cfg.n_episodes,
-                               "wall_time": round(self.wall, 3)}
+                               "wall_time": round(self.wall, 3), "cpu_seconds": round(self.cpu, 3)}
         policy = self.policy()
         for m in self.cfg.eval_maps:
             s = run_protocol("training", policy, m, self.cfg.task_params, episodes=1, seed=self.cfg.seed).summary()
@@ -378,13 +384,15 @@ class LeanPPO:
         return row
 
     def step(self) -> dict[str, Any]:
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         buf = self.rollout()
         stats = self.learn(buf)
         self.update += 1
         seconds = time.perf_counter() - t0
         self.wall += seconds
+        self.cpu += time.process_time() - c0
         row = {"update": self.update, "steps": self.steps, "wall_time": round(self.wall, 3),
+               "cpu_seconds": round(self.cpu, 3),
                "fitness_mean": round(float(buf.fitness.mean()), 6), "fitness_max": round(float(buf.fitness.max()), 6),
                "solved_rate": round(float(buf.solved.mean()), 4), **{k: round(v, 6) for k, v in stats.items()},
                "robot_steps_per_second": round(self.steps_per_update / seconds, 1)}
@@ -395,7 +403,7 @@ class LeanPPO:
 
     def _write_logs(self) -> None:
         maps = self.cfg.eval_maps
-        write_csv(self.out / "eval_log.csv", ["steps", "episodes_trained", "wall_time"] +
+        write_csv(self.out / "eval_log.csv", ["steps", "episodes_trained", "wall_time", "cpu_seconds"] +
                   [f"{k}_{m}" for m in maps for k in ("fitness", "solved")], self.eval_rows)
         write_csv(self.out / "train_log.csv", TRAIN_FIELDS, self.train_rows)
 
@@ -421,7 +429,7 @@ class LeanPPO:
         rows = self.eval_rows
         best_row = max(rows, key=lambda r: r.get(f"fitness_{m}", -math.inf))
         summary = {"algo": self.cfg.method, "seed": self.cfg.seed, "steps": self.steps, "updates": self.update,
-                   "wall_time": round(self.wall, 2),
+                   "wall_time": round(self.wall, 2), "cpu_seconds": round(self.cpu, 2),
                    "robot_steps_per_second": round(self.steps / self.wall, 1) if self.wall > 0 else None,
                    "episodes_trained": self.update * self.cfg.n_episodes,
                    "final": {k: v for k, v in rows[-1].items() if k.startswith(("fitness_", "solved_"))},

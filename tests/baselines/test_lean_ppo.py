@@ -107,8 +107,8 @@ def test_resume_continues_bit_identically(tmp_path, method):
     a = json.loads((tmp_path / "straight" / "checkpoint.json").read_text())
     b = json.loads((tmp_path / "resumed" / "checkpoint.json").read_text())
     assert a["update"] == b["update"] == 3 and a["rng"] == b["rng"]
-    strip = lambda rows: [{k: v for k, v in r.items() if k not in ("wall_time", "robot_steps_per_second")}
-                          for r in rows]
+    timing = ("wall_time", "cpu_seconds", "robot_steps_per_second")
+    strip = lambda rows: [{k: v for k, v in r.items() if k not in timing} for r in rows]
     assert strip(a["train_rows"]) == strip(b["train_rows"])
     wa = torch.load(tmp_path / "straight" / a["weights"], weights_only=True)
     wb = torch.load(tmp_path / "resumed" / b["weights"], weights_only=True)
@@ -156,3 +156,15 @@ def test_cli_lean_starts_then_resumes_with_one_command(tmp_path, capsys):
     assert '"steps": 720' in out
     assert main(["lean", "--method", "ppo_ff", "--steps", "360", "--out", str(tmp_path / "x"),
                  "--hyperparams", '{"colour": 1}']) == 2
+
+
+def test_resume_names_a_checkpoint_with_missing_fields(tmp_path):
+    base = dict(method="ppo_ff", seed=0, max_cycles=60, signal_tick=30, n_episodes=2, bptt=60, hidden=8,
+                eval_maps=["plus"])
+    train(LeanConfig(steps=360, **base), tmp_path / "run")
+    path = tmp_path / "run" / "checkpoint.json"
+    data = json.loads(path.read_text())
+    del data["value_norm"]
+    path.write_text(json.dumps(data))
+    with pytest.raises(ValueError, match="checkpoint.json.*value_norm"):
+        LeanPPO(LeanConfig(steps=720, **base), tmp_path / "run", resume=True)
