@@ -5,14 +5,16 @@ method, reported with the result (`tuning_cost.json`).  All trials train on one 
 so that configurations are compared on the same episodes; the final runs use fresh seeds (0-4).
 
 Objective: the mean team fitness of the sampling policy over the last 10% of a trial's updates (whole
-episodes of the training map): steadier than the best greedy checkpoint, which a lucky update can set.
+episodes of the training map): steadier than the best greedy checkpoint, which a lucky update can set.  (The
+rollout of update k is played by the policy after k - 1 updates, so a 1-update smoke trial scores the
+untrained policy; at 2e7 robot-steps the last 10% are 15 updates of the trained one.)
 Intermediate values (the same mean over the updates so far) feed the median pruner, which stops a trial that
 is below the median of earlier trials at the same update after the first 30% of its budget.
 
 Folder:
   study.jsonl        optuna's journal (plain JSON lines): every trial, its parameters, values and state
   trials/<key>/      one lean PPO run per parameter set (key = a digest of the settings), resumable
-  tuning_cost.json   trials, robot-steps and wall seconds spent; best value and settings so far
+  tuning_cost.json   trials, robot-steps, wall and CPU seconds spent; best value and settings so far
   best.json          the best settings, as `--hyperparams` for `mahn-baselines lean`
 
 Resumable and deterministic: the sampler for trial k is seeded with (seed, k) and sees the same finished
@@ -137,7 +139,7 @@ def tune(method: str, out: "str | Path", trials: int = DEFAULT_TRIALS, steps: in
 def _write_cost(study: Any, out: Path, method: str, steps: int) -> dict[str, Any]:
     from optuna.trial import TrialState
 
-    robot_steps, wall = 0, 0.0
+    robot_steps, wall, cpu = 0, 0.0, 0.0
     for t in study.get_trials(deepcopy=False):
         run_dir = t.user_attrs.get("run_dir")
         if run_dir and t.state in (TrialState.COMPLETE, TrialState.PRUNED):
@@ -145,12 +147,13 @@ def _write_cost(study: Any, out: Path, method: str, steps: int) -> dict[str, Any
             if rows:
                 robot_steps += int(rows[-1]["steps"])
                 wall += float(rows[-1]["wall_time"])
+                cpu += float(rows[-1]["cpu_seconds"])
     done = [t for t in study.get_trials(deepcopy=False) if t.state == TrialState.COMPLETE]
     best = max(done, key=lambda t: t.value) if done else None
     cost = {"method": method, "steps_per_trial": steps,
             "trials_completed": len(done),
             "trials_pruned": len(study.get_trials(deepcopy=False, states=(TrialState.PRUNED,))),
-            "robot_steps": robot_steps, "wall_seconds": round(wall, 1),
+            "robot_steps": robot_steps, "wall_seconds": round(wall, 1), "cpu_seconds": round(cpu, 1),
             "best_value": best.value if best else None, "best_trial": best.number if best else None,
             "best_settings": best.params if best else None}
     atomic_write_json(out / "tuning_cost.json", cost)

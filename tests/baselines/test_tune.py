@@ -25,7 +25,7 @@ def _params(out):
 def test_smoke_run_is_deterministic_and_resumes(tmp_path):
     log = []
     cost = tune("ppo_ff", tmp_path / "a", trials=2, steps=1, base=TINY, log=log.append)
-    assert cost["trials_completed"] == 2 and cost["robot_steps"] > 0
+    assert cost["trials_completed"] == 2 and cost["robot_steps"] > 0 and cost["cpu_seconds"] > 0
     assert json.loads((tmp_path / "a" / "best.json").read_text()) == cost["best_settings"]
     tune("ppo_ff", tmp_path / "b", trials=3, steps=1, base=TINY, log=log.append)
     tune("ppo_ff", tmp_path / "a", trials=3, steps=1, base=TINY, log=log.append)  # continue: one more
