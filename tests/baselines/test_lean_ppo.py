@@ -168,3 +168,16 @@ def test_resume_names_a_checkpoint_with_missing_fields(tmp_path):
     path.write_text(json.dumps(data))
     with pytest.raises(ValueError, match="checkpoint.json.*value_norm"):
         LeanPPO(LeanConfig(steps=720, **base), tmp_path / "run", resume=True)
+
+
+def test_eval_scores_a_lean_run_with_the_shared_protocols(tmp_path):
+    from baselines.evaluate import evaluate_run
+
+    base = dict(method="ippo_gru", seed=0, max_cycles=60, signal_tick=30, n_episodes=2, bptt=60, hidden=8,
+                eval_maps=["plus"])
+    train(LeanConfig(steps=360, **base), tmp_path / "run")
+    res = evaluate_run(tmp_path / "run", maps=["plus"], protocols=["training"], which="best")
+    best = json.loads((tmp_path / "run" / "best.json").read_text())["evaluation"]["fitness_plus"]
+    assert res["algo"] == "ippo_gru" and res["recurrent"]
+    assert res["protocols"]["training"]["plus"]["fitness"] == pytest.approx(best, abs=1e-6)
+    assert (tmp_path / "run" / "eval.json").exists()
