@@ -30,7 +30,7 @@ rewards; the signal at tick 690 must be linked to whatever the robots did before
 """
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, field, fields
+from dataclasses import asdict, dataclass, fields
 from typing import Any, Sequence
 
 from mahn_envs.core.params import TaskParams
@@ -71,7 +71,6 @@ class LeanConfig:
     eval_maps: Sequence[str] = EVAL_MAPS
     checkpoint_every: int = 1  #: updates between checkpoints
     torch_threads: int = 1
-    extra: dict[str, Any] = field(default_factory=dict)  #: free-form notes (e.g. the optuna trial)
 
     def __post_init__(self) -> None:
         if self.method not in METHODS:
