@@ -286,6 +286,18 @@ class DirectCMA:
 
 def train(cfg: CMAConfig, out: "str | Path", resume: bool = False,
           on_generation: Optional[Callable[[list], None]] = None, checkpoint_every: int = 10) -> dict:
-    """Run (or, with resume=True and a checkpoint in `out`, continue) a CMA-ES run; returns the summary."""
-    has_ckpt = (Path(out) / "checkpoint.json").exists()
+    """Run (or, with resume=True and a checkpoint in `out`, continue) a CMA-ES run; returns the summary.
+
+    A finished run asked for no more generations is not replayed: its summary is returned as it is (so the
+    documented loops over seeds can be rerun cheaply after an interruption)."""
+    out = Path(out)
+    has_ckpt = (out / "checkpoint.json").exists()
+    if resume and has_ckpt and (out / "summary.json").exists():
+        data = read_versioned_json(out / "checkpoint.json", "cma_checkpoint")
+        saved = CMAConfig.from_dict(data["config"]).to_dict()
+        same = all(saved[k] == v for k, v in cfg.to_dict().items() if k not in STOPPING_RULES)
+        if same and int(data["generation"]) >= cfg.generations:
+            from mahn_evo.files import read_json_object
+
+            return read_json_object(out / "summary.json", "summary")
     return DirectCMA(cfg, out, resume=resume and has_ckpt).run(on_generation, checkpoint_every)

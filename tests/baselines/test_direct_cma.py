@@ -94,3 +94,10 @@ def test_cli_cmaes_starts_then_resumes_with_one_command(tmp_path, capsys):
     assert main(args + ["--generations", "3"]) == 0
     summary = json.loads((tmp_path / "run" / "summary.json").read_text())
     assert summary["generations"] == 3 and summary["method"] == "cmaes_direct_standard"
+
+
+def test_a_finished_run_is_not_replayed(tmp_path, monkeypatch):
+    base = dict(mode="standard", popsize=4, seed=0, max_cycles=60, signal_tick=30)
+    first = train(CMAConfig(generations=2, **base), tmp_path / "run")
+    monkeypatch.setattr(DirectCMA, "__init__", lambda *a, **k: pytest.fail("replayed a finished run"))
+    assert train(CMAConfig(generations=2, **base), tmp_path / "run", resume=True) == first
