@@ -8,6 +8,7 @@ from pathlib import Path
 from typing import Optional, Sequence
 
 from .algos import ALGO_NAMES
+from .lean_config import METHODS as LEAN_METHODS
 from .train import EVAL_MAPS
 
 
@@ -68,11 +69,70 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--steps", type=int, default=None,
                    help="RL budget in robot-steps (default: the largest evolution budget among --evo-runs)")
     c.add_argument("--no-train", action="store_true", help="only compare runs that already exist")
-    c.add_argument("--evo-runs", nargs="*", type=Path, default=[], help="mahn-evo train output directories")
+    c.add_argument("--evo-runs", nargs="*", type=Path, default=[],
+                   help="mahn-evo train (or mahn-baselines cmaes) output directories")
+    c.add_argument("--rl-runs", nargs="*", type=Path, default=[],
+                   help="more finished RL run directories to include as they are (e.g. mahn-baselines lean runs)")
     c.add_argument("--out", type=Path, default=Path("docs/results/baselines"))
     c.add_argument("--points", type=int, default=12, help="budget points in the table")
     _add_task_args(c)
+
+    lp = sub.add_parser("lean", help="train a lean PPO run: ippo_gru, mappo_gru or ppo_ff (torch; resumable)")
+    lp.add_argument("--method", choices=LEAN_METHODS, required=True)
+    lp.add_argument("--steps", type=_count, required=True, help="budget in robot-steps (e.g. 1e8)")
+    lp.add_argument("--seed", type=int, default=0)
+    lp.add_argument("--out", type=Path, required=True)
+    lp.add_argument("--resume", action="store_true",
+                    help="continue the run in --out if there is one (else start it): one command to rerun")
+    _add_lean_task_args(lp)
+    lp.add_argument("--hyperparams", type=_json_dict, default={},
+                    help="JSON overrides of the settings in baselines/lean_config.py (e.g. a tune best.json)")
+
+    cm = sub.add_parser("cmaes", help="direct-encoding control: CMA-ES on the substrate networks (resumable)")
+    cm.add_argument("--mode", choices=("situational", "standard"), default="situational")
+    cm.add_argument("--generations", type=int, required=True)
+    cm.add_argument("--popsize", type=int, default=100)
+    cm.add_argument("--sigma0", type=float, default=1.0)
+    cm.add_argument("--seed", type=int, default=0)
+    cm.add_argument("--out", type=Path, required=True)
+    cm.add_argument("--resume", action="store_true", help="continue the run in --out if there is one")
+    cm.add_argument("--episodes", type=int, default=1, help="episodes per candidate")
+    cm.add_argument("--checkpoint-every", type=int, default=10, help="generations between checkpoints")
+    cm.add_argument("--map", default="plus")
+    cm.add_argument("--max-cycles", type=int, default=1364)
+    cm.add_argument("--signal-tick", type=int, default=690)
+
+    tu = sub.add_parser("tune", help="optuna search of a lean PPO method's hyper-parameters (resumable)")
+    tu.add_argument("--method", choices=LEAN_METHODS, required=True)
+    tu.add_argument("--trials", type=int, default=25, help="finished trials to reach")
+    tu.add_argument("--steps", type=_count, default=20_000_000, help="robot-steps per trial")
+    tu.add_argument("--seed", type=int, default=0, help="seed of the sampler")
+    tu.add_argument("--tuning-seed", type=int, default=100, help="training seed of every trial")
+    tu.add_argument("--out", type=Path, required=True)
+    _add_lean_task_args(tu)
     return parser
+
+
+def _count(text: str) -> int:
+    """Budgets as integers, also written like 2e7."""
+    try:
+        value = float(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from exc
+    if not value.is_integer() or value < 1:
+        raise argparse.ArgumentTypeError(f"must be a positive whole number, got {text!r}")
+    return int(value)
+
+
+def _add_lean_task_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--map", default="plus", help="training map")
+    p.add_argument("--max-cycles", type=int, default=1364, help="episode length in ticks (default: the paper's)")
+    p.add_argument("--signal-tick", type=int, default=690, help="tick of the come-home signal")
+    p.add_argument("--threads", type=int, default=1, help="torch threads")
+
+
+def _lean_task(a: argparse.Namespace) -> dict:
+    return {"map": a.map, "max_cycles": a.max_cycles, "signal_tick": a.signal_tick, "torch_threads": a.threads}
 
 
 def main(argv: Optional[Sequence[str]] = None) -> int:
@@ -90,6 +150,35 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
             res = evaluate_run(a.run, maps=a.maps, protocols=a.protocols, episodes=a.episodes, seed=a.seed,
                                which=a.model, stochastic=a.stochastic)
             print(json.dumps(res, indent=2) if a.json else format_results(res))
+        elif a.command == "lean":
+            from .lean_config import LeanConfig
+            from .lean_ppo import train as lean_train
+
+            cfg = LeanConfig(method=a.method, steps=a.steps, seed=a.seed, **_lean_task(a)).with_overrides(
+                a.hyperparams)
+            summary = lean_train(cfg, a.out, resume=a.resume,
+                                 on_update=lambda r: print(f"update {r['update']}  {r['steps']} robot-steps  "
+                                                           f"fitness {r['fitness_mean']:.3f} (max "
+                                                           f"{r['fitness_max']:.3f})  "
+                                                           f"{r['robot_steps_per_second']:.0f}/s", flush=True))
+            print(json.dumps(summary, indent=2))
+        elif a.command == "cmaes":
+            from .direct_cma import CMAConfig
+            from .direct_cma import train as cma_train
+
+            cfg = CMAConfig(mode=a.mode, generations=a.generations, popsize=a.popsize, sigma0=a.sigma0,
+                            seed=a.seed, map=a.map, episodes=a.episodes, max_cycles=a.max_cycles,
+                            signal_tick=a.signal_tick)
+            summary = cma_train(cfg, a.out, resume=a.resume, checkpoint_every=a.checkpoint_every,
+                                on_generation=lambda r: print(f"generation {r[0]}  best {r[2]:.3f}  best ever "
+                                                              f"{r[4]:.3f}  sigma {r[7]:.3f}", flush=True))
+            print(json.dumps(summary, indent=2))
+        elif a.command == "tune":
+            from .tune import tune
+
+            cost = tune(a.method, a.out, trials=a.trials, steps=a.steps, seed=a.seed, tuning_seed=a.tuning_seed,
+                        base=_lean_task(a))
+            print(json.dumps(cost, indent=2))
         else:
             from .compare import compare, evo_budget, train_missing
             from .train import default_out, run_exists
@@ -102,7 +191,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
                 if steps is None:
                     raise ValueError("give --steps (or --evo-runs to match their budget)")
                 rl = train_missing(a.algos, a.seeds, steps, a.runs_dir, _task_overrides(a))
-            payload = compare(rl, a.evo_runs, a.out, points=a.points)
+            payload = compare(list(rl) + list(a.rl_runs), a.evo_runs, a.out, points=a.points)
             from .compare import markdown_table
 
             print(markdown_table(payload["table"]))

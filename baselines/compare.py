@@ -75,7 +75,8 @@ def rl_curve(run_dir: "str | Path") -> Curve:
 
 
 def evo_curve(run_dir: "str | Path", ticks: int = TICKS, robots: int = ROBOTS) -> Curve:
-    """An `mahn-evo train` run: `log.csv` (generation, evaluations, best_fitness, solved) + `summary.json`."""
+    """An `mahn-evo train` run (or a `mahn-baselines cmaes` run): `log.csv` (generation, evaluations,
+    best_fitness, solved) + `summary.json` (`mode`, and `method` where it is not HyperNEAT)."""
     run_dir = Path(run_dir)
     rows = read_csv(run_dir / "log.csv")
     if not rows:
@@ -88,7 +89,9 @@ def evo_curve(run_dir: "str | Path", ticks: int = TICKS, robots: int = ROBOTS) -
     mode = summary.get("mode", "unknown")
     b, f, s = _best_so_far([float(r["evaluations"]) * ticks * robots for r in rows],
                            [float(r["best_fitness"]) for r in rows], [_truthy(r["solved"]) for r in rows])
-    return Curve(f"hyperneat_{mode}", summary.get("seed", run_dir.name), b, f, s, str(run_dir),
+    # HyperNEAT runs are named by their mode; other evolution runs (direct-encoding CMA-ES) name themselves
+    method = summary.get("method") or f"hyperneat_{mode}"
+    return Curve(method, summary.get("seed", run_dir.name), b, f, s, str(run_dir),
                  holds_after_end=bool(summary.get("solved")) and bool(s[-1]))
 
 
@@ -119,18 +122,34 @@ def aggregate(curves: Sequence[Curve], budgets: np.ndarray) -> list[dict[str, An
     return rows
 
 
+#: the method the solved rates are tested against (Fisher's exact test), when it is in the comparison
+REFERENCE_METHOD = "hyperneat_situational"
+
+
 def final_table(curves: Sequence[Curve]) -> list[dict[str, Any]]:
-    """Per method at each run's full budget: seeds, budget, fitness mean/std/max, solved rate."""
+    """Per method at each run's full budget: seeds, budget, fitness mean/std/max, IQM with a 95% bootstrap
+    interval, solved rate, and Fisher's exact p-value of the solved rate against `REFERENCE_METHOD`."""
+    from .stats import fisher_solved, iqm, iqm_ci
+
     out = []
+    finals = {}
+    for method in sorted({c.method for c in curves}):
+        runs = [c for c in curves if c.method == method]
+        finals[method] = (int(sum(bool(c.solved[-1]) for c in runs)), len(runs))
     for method in sorted({c.method for c in curves}):
         runs = [c for c in curves if c.method == method]
         f = np.array([c.fitness[-1] for c in runs])
         s = np.array([c.solved[-1] for c in runs])
         first = [c.budget[int(np.argmax(c.solved > 0))] for c in runs if np.any(c.solved > 0)]
+        lo, hi = iqm_ci(f)
+        ref = finals.get(REFERENCE_METHOD)
         out.append({"method": method, "runs": len(runs), "budget_robot_steps": int(max(c.budget[-1] for c in runs)),
                     "fitness_mean": round(float(f.mean()), 3), "fitness_std": round(float(f.std()), 3),
-                    "fitness_max": round(float(f.max()), 3), "solved_rate": round(float(s.mean()), 3),
-                    "median_budget_to_solve": int(np.median(first)) if first else ""})
+                    "fitness_max": round(float(f.max()), 3), "fitness_iqm": round(iqm(f), 3),
+                    "fitness_iqm_ci95": f"{lo:.3f}-{hi:.3f}", "solved_rate": round(float(s.mean()), 3),
+                    "median_budget_to_solve": int(np.median(first)) if first else "",
+                    f"fisher_p_vs_{REFERENCE_METHOD}": "" if ref is None or method == REFERENCE_METHOD
+                    else round(fisher_solved(*finals[method], *ref), 4)})
     return out
 
 

@@ -1,4 +1,5 @@
-"""Score a trained run with the metric of `mahn-evo eval` (team fitness, solved) on maps x protocols.
+"""Score a trained run (SB3 or `mahn-baselines lean`) with the metric of `mahn-evo eval` (team fitness, solved)
+on maps x protocols.
 
 The task parameters (episode length, signal tick) come from the run's `config.json`, so a model is scored on the
 task it was trained for.  With the default noise-free task and a greedy policy every episode is identical, so
@@ -40,14 +41,28 @@ def evaluate_run(run_dir: "str | Path", maps: Sequence[str] = EVAL_MAPS,
     """
     import torch
 
-    cfg = load_config(run_dir)
-    torch.set_num_threads(max(1, cfg.torch_threads))
-    path = model_path(run_dir, which)
-    model = load_model(cfg.algo, str(path))
-    policy = SB3TeamPolicy(model, deterministic=not stochastic)
-    results: dict[str, Any] = {"run": str(run_dir), "algo": cfg.algo, "seed": cfg.seed, "model": path.name,
-                               "deterministic": not stochastic, "episodes": episodes, "eval_seed": seed,
-                               "recurrent": get_algo(cfg.algo).recurrent, "protocols": {}}
+    from .io import read_json
+
+    if read_json(Path(run_dir) / "config.json").get("kind") == "lean_config":  # a `mahn-baselines lean` run
+        from .lean_nets import LeanTeamPolicy
+        from .lean_ppo import load_actor
+
+        cfg, actor = load_actor(run_dir, which)
+        torch.set_num_threads(max(1, cfg.torch_threads))
+        policy = LeanTeamPolicy(actor, cfg.method, cfg.frame_stack, deterministic=not stochastic, seed=seed)
+        results: dict[str, Any] = {"run": str(run_dir), "algo": cfg.method, "seed": cfg.seed,
+                                   "model": "best_actor.pt" if which == "best" else "last checkpoint",
+                                   "deterministic": not stochastic, "episodes": episodes, "eval_seed": seed,
+                                   "recurrent": cfg.recurrent, "protocols": {}}
+    else:
+        cfg = load_config(run_dir)
+        torch.set_num_threads(max(1, cfg.torch_threads))
+        path = model_path(run_dir, which)
+        model = load_model(cfg.algo, str(path))
+        policy = SB3TeamPolicy(model, deterministic=not stochastic)
+        results = {"run": str(run_dir), "algo": cfg.algo, "seed": cfg.seed, "model": path.name,
+                   "deterministic": not stochastic, "episodes": episodes, "eval_seed": seed,
+                   "recurrent": get_algo(cfg.algo).recurrent, "protocols": {}}
     for proto in protocols:
         per_map: dict[str, Any] = {}
         for m in maps:

@@ -26,12 +26,22 @@ from typing import Any, Iterable, Optional, Sequence, Union
 import numpy as np
 from gymnasium import spaces
 
+from mahn_envs.core import task as T
 from mahn_envs.core.batch import BatchSim
 from mahn_envs.core.params import TaskParams
 
 N_SENSOR_INPUTS = 7  #: six IR values then the come-home signal (the core's observation)
 
 Indices = Union[None, int, Iterable[int]]
+
+#: per-robot columns of `PatrolReturnVecEnv.global_state`
+GLOBAL_ROBOT_FEATURES = ("x", "y", "sin_heading", "cos_heading", "signal", "turned", "reached_home",
+                         "distance_home_at_signal", "return_credit")
+
+
+def global_state_size(n_robots: int, n_pois: int) -> int:
+    """Width of `PatrolReturnVecEnv.global_state`: time, the robots' features, post coverage, two team flags."""
+    return 1 + n_robots * len(GLOBAL_ROBOT_FEATURES) + n_pois + 2
 
 
 def slot_observations(core_obs: np.ndarray, out: Optional[np.ndarray] = None) -> np.ndarray:
@@ -131,6 +141,60 @@ class PatrolReturnVecEnv:
         self.reset_infos = [{} for _ in range(self.num_envs)]
         self._needs_reset = False
         return self._start_batch().copy()
+
+    def reset_at(self, seed: int, episode: int) -> np.ndarray:
+        """Start batch number `episode` of seed `seed` (what `seed(seed); reset()` then `episode` finished
+        batches would give): how a resumed training run continues the episode sequence it stopped in."""
+        if isinstance(episode, bool) or not isinstance(episode, (int, np.integer)) or episode < 0:
+            raise ValueError(f"episode must be a non-negative integer, got {episode!r}")
+        self.seed(seed)
+        self.reset()
+        self._episode = int(episode)
+        return self._start_batch().copy()
+
+    @property
+    def tick(self) -> int:
+        """Ticks played in the current batch of episodes (0 right after a reset)."""
+        return self.sim.tick
+
+    @property
+    def global_state_size(self) -> int:
+        return global_state_size(self.n_robots, self.sim.goto.shape[1])
+
+    def global_state(self, out: Optional[np.ndarray] = None) -> np.ndarray:
+        """The team's state as a centralised critic sees it: (n_episodes, global_state_size) float32.
+
+        Columns: time (tick / max_cycles); per robot x, y (scaled to the map's extent), sin and cos of the
+        heading, its come-home signal, turned-since-signal and reached-home flags, distance to home at the
+        signal and return credit so far (both / 100 cm); patrol credit per post (/ fitness samples before
+        the signal); then the two team flags (every post covered at the signal, signal given).  That is
+        everything the fitness depends on, so with it the value of a state is a function of the state:
+        the reward multipliers (all posts covered, everyone moved) are no longer hidden from the critic.
+        Read-only view of the batch core's arrays; actors never see it.
+        """
+        sim, p = self.sim, self.sim.params
+        B, R = self.n_episodes, self.n_robots
+        if out is None:
+            out = np.empty((B, self.global_state_size), dtype=np.float32)
+        xmin, ymin, xmax, ymax = sim.world.bounds
+        feats = np.empty((B, R, len(GLOBAL_ROBOT_FEATURES)), dtype=np.float32)
+        feats[:, :, 0] = (sim.pose[:, :, T.X] - xmin) / (xmax - xmin)
+        feats[:, :, 1] = (sim.pose[:, :, T.Y] - ymin) / (ymax - ymin)
+        feats[:, :, 2] = np.sin(sim.pose[:, :, T.H])
+        feats[:, :, 3] = np.cos(sim.pose[:, :, T.H])
+        feats[:, :, 4] = sim.rflag[:, :, T.F_SIGNAL]
+        feats[:, :, 5] = sim.rflag[:, :, T.F_TURNED]
+        feats[:, :, 6] = sim.rflag[:, :, T.F_REACH]
+        feats[:, :, 7] = sim.racc[:, :, T.R_ORIG_DIST] / 100.0
+        feats[:, :, 8] = sim.racc[:, :, T.R_END] / 100.0
+        out[:, 0] = sim.tick / p.max_cycles
+        out[:, 1:1 + feats[0].size] = feats.reshape(B, -1)
+        n_samples = max(1, p.signal_tick // p.sample_period)
+        P = sim.goto.shape[1]
+        out[:, 1 + feats[0].size:1 + feats[0].size + P] = sim.goto / n_samples
+        out[:, -2] = sim.est[:, T.E_ALLCLOSE]
+        out[:, -1] = sim.est[:, T.E_SWITCHED]
+        return out
 
     # ------------------------------------------------------------------ stepping
     def step_async(self, actions: np.ndarray) -> None:

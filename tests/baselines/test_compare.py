@@ -81,3 +81,13 @@ def test_evo_log_missing_columns_is_named(tmp_path) -> None:
     write_csv(d / "log.csv", ["generation", "best_fitness"], [{"generation": 0, "best_fitness": 1}])
     with pytest.raises(ValueError, match="evaluations"):
         evo_curve(d)
+
+
+def test_cli_compare_takes_lean_and_cmaes_runs_as_they_are(tmp_path, capsys) -> None:
+    lean = _rl_run(tmp_path / "fair", "mappo_gru", 0, [(0, 1.0, 0), (130_944, 2.5, 0)])
+    cma = _evo_run(tmp_path, "situational", 3, [(100, 4.0, 0)])
+    write_json(cma / "summary.json", {"method": "cmaes_direct_situational", "mode": "situational", "seed": 3})
+    assert main(["compare", "--no-train", "--algos", "--rl-runs", str(lean), "--evo-runs", str(cma),
+                 "--out", str(tmp_path / "o")]) == 0
+    out = capsys.readouterr().out
+    assert "mappo_gru" in out and "cmaes_direct_situational" in out

@@ -135,6 +135,43 @@ def test_reward_scale_leaves_episode_score_unscaled() -> None:
 def test_imports_without_torch() -> None:
     code = ("import sys; sys.modules['torch'] = None; sys.modules['stable_baselines3'] = None\n"
             "import baselines, baselines.vec_env, baselines.gym_env, baselines.protocols, baselines.compare\n"
+            "import baselines.lean_config, baselines.direct_cma  # torch-free: configs and the CMA-ES control\n"
             "import baselines.cli; baselines.cli.build_parser()\n"
             "assert 'baselines.vec_env' in sys.modules")
     subprocess.run([sys.executable, "-c", code], check=True)
+
+
+def test_global_state_reads_the_core_state_a_centralised_critic_needs():
+    env = PatrolReturnVecEnv(2, max_cycles=120, signal_tick=60)
+    env.seed(0)
+    env.reset()
+    R, P = env.n_robots, env.sim.goto.shape[1]
+    s = env.global_state()
+    assert s.shape == (2, env.global_state_size) and s.dtype == np.float32
+    assert env.global_state_size == 1 + 9 * R + P + 2
+    assert s[0, 0] == 0.0 and np.all(s[:, -2:] == 0)
+    for _ in range(61):
+        env.step(np.ones(env.num_envs, dtype=np.int64))
+    s = env.global_state()
+    assert s[0, 0] == pytest.approx(61 / 120)
+    assert s[0, -1] == 1.0  # the signal was given at tick 60
+    robot = s[0, 1:1 + 9 * R].reshape(R, 9)
+    assert np.all(robot[:, 4] == 1.0)  # every robot's signal flag
+    np.testing.assert_allclose(robot[:, 0], (env.sim.pose[0, :, 0] - env.sim.world.bounds[0])
+                               / (env.sim.world.bounds[2] - env.sim.world.bounds[0]), rtol=1e-6)
+    np.testing.assert_allclose(s[0, 1 + 9 * R:1 + 9 * R + P], env.sim.goto[0] / 2, rtol=1e-6)
+    assert np.all(s[0, 1 + 9 * R:1 + 9 * R + P] > 0)  # the robots drove towards the posts
+
+
+def test_reset_at_continues_the_episode_sequence_of_a_seed():
+    task = dict(max_cycles=30, signal_tick=30, start_jitter_xy=2.0, start_jitter_heading=0.1)
+    a = PatrolReturnVecEnv(2, **task)
+    a.seed(5)
+    a.reset()
+    for _ in range(2 * 30):  # two whole batches of episodes: the env auto-resets into the third
+        obs_a, *_ = a.step(np.ones(a.num_envs, dtype=np.int64))
+    b = PatrolReturnVecEnv(2, **task)
+    np.testing.assert_array_equal(b.reset_at(5, 2), obs_a)
+    np.testing.assert_array_equal(b.sim.pose, a.sim.pose)
+    with pytest.raises(ValueError, match="episode"):
+        b.reset_at(5, -1)

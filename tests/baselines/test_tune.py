@@ -1,0 +1,56 @@
+"""The optuna harness: a smoke run, deterministic suggestions, resuming a study and an interrupted trial."""
+from __future__ import annotations
+
+import json
+
+import pytest
+
+optuna = pytest.importorskip("optuna")
+pytest.importorskip("torch")
+
+from baselines.tune import STUDY_FILE, objective_value, tune  # noqa: E402
+
+TINY = {"max_cycles": 60, "signal_tick": 30}
+
+
+def _params(out):
+    from optuna.storages import JournalStorage
+    from optuna.storages.journal import JournalFileBackend
+
+    study = optuna.load_study(study_name="lean_ppo_ff",
+                              storage=JournalStorage(JournalFileBackend(str(out / STUDY_FILE))))
+    return [(t.number, t.state.name, t.params) for t in study.get_trials()]
+
+
+def test_smoke_run_is_deterministic_and_resumes(tmp_path):
+    log = []
+    cost = tune("ppo_ff", tmp_path / "a", trials=2, steps=1, base=TINY, log=log.append)
+    assert cost["trials_completed"] == 2 and cost["robot_steps"] > 0 and cost["cpu_seconds"] > 0
+    assert json.loads((tmp_path / "a" / "best.json").read_text()) == cost["best_settings"]
+    tune("ppo_ff", tmp_path / "b", trials=3, steps=1, base=TINY, log=log.append)
+    tune("ppo_ff", tmp_path / "a", trials=3, steps=1, base=TINY, log=log.append)  # continue: one more
+    assert _params(tmp_path / "a") == _params(tmp_path / "b")
+    assert len(_params(tmp_path / "a")) == 3
+
+
+def test_an_interrupted_trial_runs_again_with_its_settings(tmp_path):
+    tune("ppo_ff", tmp_path, trials=1, steps=1, base=TINY, log=lambda s: None)
+    from optuna.storages import JournalStorage
+    from optuna.storages.journal import JournalFileBackend
+
+    study = optuna.load_study(study_name="lean_ppo_ff",
+                              storage=JournalStorage(JournalFileBackend(str(tmp_path / STUDY_FILE))))
+    cut = study.ask({"lr": optuna.distributions.FloatDistribution(1e-4, 3e-3, log=True)})  # left RUNNING
+    log = []
+    tune("ppo_ff", tmp_path, trials=2, steps=1, base=TINY, log=log.append)
+    trials = _params(tmp_path)
+    assert trials[cut.number][1] == "FAIL"
+    assert trials[-1][1] == "COMPLETE" and trials[-1][2]["lr"] == cut.params["lr"]
+    assert any("interrupted" in line for line in log)
+
+
+def test_objective_is_the_mean_of_the_last_tenth():
+    rows = [{"fitness_mean": float(i)} for i in range(20)]
+    assert objective_value(rows) == pytest.approx(18.5)
+    with pytest.raises(ValueError):
+        objective_value([])
