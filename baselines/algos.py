@@ -21,8 +21,9 @@ episode), told apart only by the one-hot agent index in the observation.  Why th
 """
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any, Callable
+from typing import Any
 
 ALGO_NAMES = ("ppo", "recurrent_ppo", "dqn")
 

@@ -4,8 +4,8 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Optional, Sequence
 
 from .algos import ALGO_NAMES
 from .lean_config import METHODS as LEAN_METHODS
@@ -135,7 +135,7 @@ def _lean_task(a: argparse.Namespace) -> dict:
     return {"map": a.map, "max_cycles": a.max_cycles, "signal_tick": a.signal_tick, "torch_threads": a.threads}
 
 
-def main(argv: Optional[Sequence[str]] = None) -> int:
+def main(argv: Sequence[str] | None = None) -> int:
     a = build_parser().parse_args(argv)
     try:
         if a.command == "train":

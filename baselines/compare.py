@@ -10,9 +10,10 @@ fraction of seeds whose best-so-far team solves the task by that budget.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Optional, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -62,7 +63,7 @@ def _best_so_far(budget: list[float], fitness: list[float], solved: list[bool]) 
     return b, f, s
 
 
-def rl_curve(run_dir: "str | Path") -> Curve:
+def rl_curve(run_dir: str | Path) -> Curve:
     run_dir = Path(run_dir)
     cfg = read_json(run_dir / "config.json")
     rows = read_csv(run_dir / "eval_log.csv")
@@ -74,7 +75,7 @@ def rl_curve(run_dir: "str | Path") -> Curve:
     return Curve(cfg["algo"], cfg["seed"], b, f, s, str(run_dir))
 
 
-def evo_curve(run_dir: "str | Path", ticks: int = TICKS, robots: int = ROBOTS) -> Curve:
+def evo_curve(run_dir: str | Path, ticks: int = TICKS, robots: int = ROBOTS) -> Curve:
     """An `mahn-evo train` run (or a `mahn-baselines cmaes` run): `log.csv` (generation, evaluations,
     best_fitness, solved) + `summary.json` (`mode`, and `method` where it is not HyperNEAT)."""
     run_dir = Path(run_dir)
@@ -194,7 +195,7 @@ def plot(curves: Sequence[Curve], budgets: np.ndarray, path: Path) -> None:
     tmp.replace(path)
 
 
-def compare(rl_runs: Sequence["str | Path"], evo_runs: Sequence["str | Path"], out: "str | Path",
+def compare(rl_runs: Sequence[str | Path], evo_runs: Sequence[str | Path], out: str | Path,
             points: int = 12) -> dict[str, Any]:
     """Read runs, write comparison.{csv,md,json,png} into `out`; returns the JSON payload."""
     curves = [rl_curve(d) for d in rl_runs] + [evo_curve(d) for d in evo_runs]
@@ -219,8 +220,8 @@ def compare(rl_runs: Sequence["str | Path"], evo_runs: Sequence["str | Path"], o
     return payload
 
 
-def train_missing(algos: Sequence[str], seeds: Sequence[int], steps: int, runs_dir: "str | Path",
-                  overrides: Optional[dict[str, Any]] = None, log=print) -> list[Path]:
+def train_missing(algos: Sequence[str], seeds: Sequence[int], steps: int, runs_dir: str | Path,
+                  overrides: dict[str, Any] | None = None, log=print) -> list[Path]:
     """Train every (algo, seed) run that has no `summary.json` yet (so an interrupted comparison resumes)."""
     from .train import TrainConfig, default_out, run_exists, train
 
@@ -238,7 +239,7 @@ def train_missing(algos: Sequence[str], seeds: Sequence[int], steps: int, runs_d
     return dirs
 
 
-def evo_budget(evo_runs: Sequence["str | Path"]) -> Optional[int]:
+def evo_budget(evo_runs: Sequence[str | Path]) -> int | None:
     """The largest evolution budget among the runs (robot-steps), to match RL's training budget to it."""
     ends = [int(evo_curve(d).budget[-1]) for d in evo_runs]
     return max(ends) if ends else None

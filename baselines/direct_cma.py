@@ -30,9 +30,10 @@ from __future__ import annotations
 import hashlib
 import math
 import time
+from collections.abc import Callable
 from dataclasses import asdict, dataclass, fields
 from pathlib import Path
-from typing import Any, Callable, Optional
+from typing import Any
 
 import numpy as np
 
@@ -72,7 +73,7 @@ class CMAConfig:
             raise ValueError(f"seed must be a non-negative integer, got {self.seed!r}")
         if not (math.isfinite(self.sigma0) and self.sigma0 > 0):
             raise ValueError(f"sigma0 must be a finite positive number, got {self.sigma0!r}")
-        self.task_params  # validates max_cycles / signal_tick
+        _ = self.task_params  # validates max_cycles / signal_tick
 
     @property
     def task_params(self) -> TaskParams:
@@ -82,7 +83,7 @@ class CMAConfig:
         return asdict(self)
 
     @classmethod
-    def from_dict(cls, d: dict[str, Any]) -> "CMAConfig":
+    def from_dict(cls, d: dict[str, Any]) -> CMAConfig:
         names = {f.name for f in fields(cls)}
         unknown = set(d) - names - {"kind", "version", "method"}
         if unknown:
@@ -132,7 +133,7 @@ def _digest(es: Any) -> str:
 class DirectCMA:
     """One CMA-ES run in a folder; `DirectCMA(cfg, out, resume=True)` continues the checkpoint there."""
 
-    def __init__(self, cfg: CMAConfig, out: "str | Path", resume: bool = False) -> None:
+    def __init__(self, cfg: CMAConfig, out: str | Path, resume: bool = False) -> None:
         import cma
 
         self.cma = cma
@@ -145,7 +146,7 @@ class DirectCMA:
         self.history: list[np.ndarray] = []
         self.rows: list[list] = []
         self.best_fitness = -math.inf
-        self.first_solved: Optional[int] = None
+        self.first_solved: int | None = None
         self.wall = 0.0
         self.cpu = 0.0  #: CPU-seconds of this process (all threads): the compute-matched budget axis
         ckpt = self.out / "checkpoint.json"
@@ -259,7 +260,7 @@ class DirectCMA:
         self.rows.append(row)
         return row
 
-    def run(self, on_generation: Optional[Callable[[list], None]] = None, checkpoint_every: int = 10) -> dict:
+    def run(self, on_generation: Callable[[list], None] | None = None, checkpoint_every: int = 10) -> dict:
         while self.generation < self.cfg.generations:
             row = self.step()
             if self.generation % checkpoint_every == 0:
@@ -284,8 +285,8 @@ class DirectCMA:
         return summary
 
 
-def train(cfg: CMAConfig, out: "str | Path", resume: bool = False,
-          on_generation: Optional[Callable[[list], None]] = None, checkpoint_every: int = 10) -> dict:
+def train(cfg: CMAConfig, out: str | Path, resume: bool = False,
+          on_generation: Callable[[list], None] | None = None, checkpoint_every: int = 10) -> dict:
     """Run (or, with resume=True and a checkpoint in `out`, continue) a CMA-ES run; returns the summary.
 
     A finished run asked for no more generations is not replayed: its summary is returned as it is (so the

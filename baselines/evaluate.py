@@ -7,8 +7,9 @@ one episode is exact; `episodes` > 1 matters for `stochastic=True` (sampled acti
 """
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any
 
 from .algos import get_algo, load_model
 from .io import write_json
@@ -19,7 +20,7 @@ from .train import EVAL_MAPS, load_config
 PROTOCOL_NAMES = ("training", "sequential")
 
 
-def model_path(run_dir: "str | Path", which: str = "best") -> Path:
+def model_path(run_dir: str | Path, which: str = "best") -> Path:
     """`best` (best training-map fitness seen during training; falls back to final) or `final`."""
     run_dir = Path(run_dir)
     if which not in ("best", "final"):
@@ -31,7 +32,7 @@ def model_path(run_dir: "str | Path", which: str = "best") -> Path:
     return path
 
 
-def evaluate_run(run_dir: "str | Path", maps: Sequence[str] = EVAL_MAPS,
+def evaluate_run(run_dir: str | Path, maps: Sequence[str] = EVAL_MAPS,
                  protocols: Sequence[str] = ("training",), episodes: int = 1, seed: int = 0,
                  which: str = "best", stochastic: bool = False, write: bool = True) -> dict[str, Any]:
     """Evaluate a run directory; returns (and writes `eval.json`) {protocol: {map: summary}}.

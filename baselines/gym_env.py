@@ -6,7 +6,7 @@ at the task.  Observation: the R slot observations concatenated, (R * (7 + R),);
 """
 from __future__ import annotations
 
-from typing import Any, Optional
+from typing import Any
 
 import gymnasium as gym
 import numpy as np
@@ -23,7 +23,7 @@ class PatrolReturnTeamEnv(gym.Env):
 
     metadata = {"render_modes": []}
 
-    def __init__(self, map: str = "plus", params: Optional[TaskParams] = None, reward_scale: float = 1.0,
+    def __init__(self, map: str = "plus", params: TaskParams | None = None, reward_scale: float = 1.0,
                  **task_kwargs: Any) -> None:
         params = params if params is not None else TaskParams(**task_kwargs)
         self.sim = BatchSim(map, 1, params)
@@ -34,7 +34,7 @@ class PatrolReturnTeamEnv(gym.Env):
         self._episode = 0
         self._sim_seed = 0
 
-    def reset(self, *, seed: Optional[int] = None, options: Optional[dict] = None):
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
         super().reset(seed=seed)
         if seed is not None:
             self._sim_seed, self._episode = int(seed), 0

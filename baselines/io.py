@@ -4,8 +4,9 @@ from __future__ import annotations
 
 import csv
 import json
+from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
-from typing import Any, Iterable, Mapping, Sequence
+from typing import Any
 
 from mahn_evo.files import atomic_write_text
 
@@ -14,16 +15,16 @@ def _atomic_write_text(path: Path, text: str) -> None:
     atomic_write_text(path, text)  # one implementation for every file the project keeps
 
 
-def write_json(path: "str | Path", data: Any) -> None:
+def write_json(path: str | Path, data: Any) -> None:
     _atomic_write_text(Path(path), json.dumps(data, indent=2, sort_keys=False) + "\n")
 
 
-def read_json(path: "str | Path") -> Any:
+def read_json(path: str | Path) -> Any:
     with open(path, encoding="utf-8") as f:
         return json.load(f)
 
 
-def write_csv(path: "str | Path", fieldnames: Sequence[str], rows: Iterable[Mapping[str, Any]]) -> None:
+def write_csv(path: str | Path, fieldnames: Sequence[str], rows: Iterable[Mapping[str, Any]]) -> None:
     import io
 
     buf = io.StringIO()
@@ -34,6 +35,6 @@ def write_csv(path: "str | Path", fieldnames: Sequence[str], rows: Iterable[Mapp
     _atomic_write_text(Path(path), buf.getvalue())
 
 
-def read_csv(path: "str | Path") -> list[dict[str, str]]:
+def read_csv(path: str | Path) -> list[dict[str, str]]:
     with open(path, encoding="utf-8", newline="") as f:
         return list(csv.DictReader(f))

@@ -30,8 +30,9 @@ rewards; the signal at tick 690 must be linked to whatever the robots did before
 """
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import asdict, dataclass, fields
-from typing import Any, Sequence
+from typing import Any
 
 from mahn_envs.core.params import TaskParams
 
@@ -97,7 +98,7 @@ class LeanConfig:
         if self.bptt < min(MIN_BPTT, self.max_cycles):
             raise ValueError(f"bptt must be at least {MIN_BPTT} ticks (or the whole episode), got {self.bptt}")
         self.eval_maps = list(self.eval_maps)
-        self.task_params  # validates max_cycles / signal_tick
+        _ = self.task_params  # validates max_cycles / signal_tick
 
     @property
     def recurrent(self) -> bool:
@@ -113,14 +114,14 @@ class LeanConfig:
         return d
 
     @classmethod
-    def from_dict(cls, d: dict[str, Any]) -> "LeanConfig":
+    def from_dict(cls, d: dict[str, Any]) -> LeanConfig:
         names = {f.name for f in fields(cls)}
         unknown = set(d) - names - {"algo", "kind", "version"}
         if unknown:
             raise ValueError(f"unknown lean PPO setting(s) {sorted(unknown)}; known: {sorted(names)}")
         return cls(**{k: v for k, v in d.items() if k in names})
 
-    def with_overrides(self, overrides: dict[str, Any]) -> "LeanConfig":
+    def with_overrides(self, overrides: dict[str, Any]) -> LeanConfig:
         d = {k: v for k, v in asdict(self).items()}
         unknown = set(overrides) - set(d)
         if unknown:

@@ -6,7 +6,7 @@ ticks from a stored hidden state), so what is trained is exactly what acted.
 """
 from __future__ import annotations
 
-from typing import Mapping, Optional, Sequence
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 import torch
@@ -109,7 +109,7 @@ class LeanTeamPolicy:
     the GRU's hidden state is carried from tick to tick and cleared by `reset`."""
 
     def __init__(self, actor: nn.Module, method: str, frame_stack: int = 1, n_robots: int = 3,
-                 deterministic: bool = True, seed: int = 0, agents: Optional[Sequence[str]] = None) -> None:
+                 deterministic: bool = True, seed: int = 0, agents: Sequence[str] | None = None) -> None:
         self.actor = actor
         self.method = method
         self.recurrent = method != "ppo_ff"
@@ -119,8 +119,8 @@ class LeanTeamPolicy:
         self.rng = np.random.default_rng(seed)
         self.agents = list(agents) if agents is not None else [f"robot_{k}" for k in range(n_robots)]
         self._n = 0
-        self._h: Optional[torch.Tensor] = None
-        self._stack: Optional[FrameStack] = None
+        self._h: torch.Tensor | None = None
+        self._stack: FrameStack | None = None
 
     def reset(self, n_episodes: int = 1) -> None:
         self._n = int(n_episodes)

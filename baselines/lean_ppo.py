@@ -22,11 +22,12 @@ Run folder (resumable: `train(..., resume=True)` continues bit-identically):
 from __future__ import annotations
 
 import math
-import pickle  # only for its exception type: weights are loaded with weights_only=True
 import os
+import pickle  # only for its exception type: weights are loaded with weights_only=True
 import time
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any, Callable, Optional
+from typing import Any
 
 import numpy as np
 import torch
@@ -117,7 +118,7 @@ class ValueNorm:
 class LeanPPO:
     """One run in a folder; `LeanPPO(cfg, out, resume=True)` continues the checkpoint there."""
 
-    def __init__(self, cfg: LeanConfig, out: "str | Path", resume: bool = False) -> None:
+    def __init__(self, cfg: LeanConfig, out: str | Path, resume: bool = False) -> None:
         torch.set_num_threads(cfg.torch_threads)
         self.cfg = cfg
         self.out = Path(out)
@@ -139,7 +140,7 @@ class LeanPPO:
         self.best = -math.inf
         self.eval_rows: list[dict[str, Any]] = []
         self.train_rows: list[dict[str, Any]] = []
-        self.weights_file: Optional[str] = None
+        self.weights_file: str | None = None
         ckpt = self.out / "checkpoint.json"
         if resume:
             self._resume(ckpt)
@@ -410,7 +411,7 @@ class LeanPPO:
     def done(self) -> bool:
         return self.steps >= self.cfg.steps
 
-    def run(self, on_update: Optional[Callable[[dict[str, Any]], None]] = None) -> dict[str, Any]:
+    def run(self, on_update: Callable[[dict[str, Any]], None] | None = None) -> dict[str, Any]:
         if not self.eval_rows:
             self.evaluate()
         while not self.done():
@@ -440,7 +441,7 @@ class LeanPPO:
         return summary
 
 
-def load_actor(run_dir: "str | Path", which: str = "best") -> tuple[LeanConfig, nn.Module]:
+def load_actor(run_dir: str | Path, which: str = "best") -> tuple[LeanConfig, nn.Module]:
     """The actor of a run (`best`: best_actor.pt, `final`: the last checkpoint's), loaded weights_only."""
     run_dir = Path(run_dir)
     data = read_versioned_json(run_dir / "config.json", "lean_config")
@@ -460,8 +461,8 @@ def load_actor(run_dir: "str | Path", which: str = "best") -> tuple[LeanConfig, 
     return cfg, actor
 
 
-def train(cfg: LeanConfig, out: "str | Path", resume: bool = False,
-          on_update: Optional[Callable[[dict[str, Any]], None]] = None) -> dict[str, Any]:
+def train(cfg: LeanConfig, out: str | Path, resume: bool = False,
+          on_update: Callable[[dict[str, Any]], None] | None = None) -> dict[str, Any]:
     """Run (or, with resume=True and a checkpoint in `out`, continue) a lean PPO run; returns the summary."""
     has_ckpt = (Path(out) / "checkpoint.json").exists()
     return LeanPPO(cfg, out, resume=resume and has_ckpt).run(on_update)

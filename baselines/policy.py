@@ -7,7 +7,8 @@ scored by one protocol implementation.
 """
 from __future__ import annotations
 
-from typing import Any, Mapping, Optional, Sequence
+from collections.abc import Mapping, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -18,13 +19,13 @@ class SB3TeamPolicy:
     """Shared-parameter SB3 policy acting for every robot; keeps LSTM state for recurrent models."""
 
     def __init__(self, model: Any, n_robots: int = 3, deterministic: bool = True,
-                 agents: Optional[Sequence[str]] = None) -> None:
+                 agents: Sequence[str] | None = None) -> None:
         self.model = model
         self.n_robots = int(n_robots)
         self.deterministic = deterministic
         self.agents = list(agents) if agents is not None else [f"robot_{k}" for k in range(self.n_robots)]
         self._state: Any = None
-        self._episode_start: Optional[np.ndarray] = None
+        self._episode_start: np.ndarray | None = None
         self._n_episodes = 0
 
     def reset(self, n_episodes: int = 1) -> None:

@@ -8,8 +8,9 @@ Register more with `register_protocol`.
 """
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any, Callable, Optional, Protocol
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -89,6 +90,6 @@ def get_protocol(name: str) -> ProtocolFn:
     return PROTOCOLS[name]
 
 
-def run_protocol(name: str, policy: TeamPolicy, map: str, params: Optional[TaskParams] = None,
+def run_protocol(name: str, policy: TeamPolicy, map: str, params: TaskParams | None = None,
                  episodes: int = 1, seed: int = 0) -> Scores:
     return get_protocol(name)(policy, map, params if params is not None else TaskParams(), episodes, seed)

@@ -5,7 +5,7 @@ numpy / scipy only; the bootstrap draws from a seeded generator, so a table is r
 """
 from __future__ import annotations
 
-from typing import Sequence
+from collections.abc import Sequence
 
 import numpy as np
 from scipy import stats

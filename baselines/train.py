@@ -10,9 +10,10 @@ evolution's budget (teams evaluated x ticks x robots) is also counted.
 from __future__ import annotations
 
 import time
+from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any
 
 from mahn_envs.core.params import TaskParams
 from mahn_envs.maps import load_map
@@ -71,7 +72,7 @@ class TrainConfig:
         return d
 
     @classmethod
-    def from_dict(cls, d: dict[str, Any]) -> "TrainConfig":
+    def from_dict(cls, d: dict[str, Any]) -> TrainConfig:
         return cls(**d)
 
 
@@ -148,7 +149,7 @@ def make_env(cfg: TrainConfig) -> PatrolReturnVecEnv:
     return PatrolReturnVecEnv(cfg.n_episodes, map=cfg.map, params=cfg.task_params, reward_scale=cfg.reward_scale)
 
 
-def train(cfg: TrainConfig, out: "str | Path", progress: bool = False) -> dict[str, Any]:
+def train(cfg: TrainConfig, out: str | Path, progress: bool = False) -> dict[str, Any]:
     """Train, evaluate along the way, save models and write the run's files; returns the summary."""
     import torch
 
@@ -181,7 +182,7 @@ def train(cfg: TrainConfig, out: "str | Path", progress: bool = False) -> dict[s
     return summary
 
 
-def load_config(run_dir: "str | Path") -> TrainConfig:
+def load_config(run_dir: str | Path) -> TrainConfig:
     from .io import read_json
 
     d = read_json(Path(run_dir) / "config.json")
@@ -191,9 +192,9 @@ def load_config(run_dir: "str | Path") -> TrainConfig:
     return TrainConfig.from_dict(d)
 
 
-def run_exists(run_dir: "str | Path") -> bool:
+def run_exists(run_dir: str | Path) -> bool:
     return (Path(run_dir) / "summary.json").exists()
 
 
-def default_out(algo: str, seed: int, root: "str | Path" = "runs/baselines") -> Path:
+def default_out(algo: str, seed: int, root: str | Path = "runs/baselines") -> Path:
     return Path(root) / f"{algo}_seed{seed}"

@@ -26,13 +26,13 @@ from __future__ import annotations
 import hashlib
 import json
 import math
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any, Callable, Optional
+from typing import Any
 
 from mahn_evo.files import atomic_write_json
 
 from .io import read_csv
-
 from .lean_config import METHODS, RECURRENT_METHODS, LeanConfig
 
 DEFAULT_TRIALS = 25
@@ -74,8 +74,8 @@ def objective_value(train_rows: list[dict[str, Any]]) -> float:
     return float(sum(float(r["fitness_mean"]) for r in tail) / len(tail))
 
 
-def tune(method: str, out: "str | Path", trials: int = DEFAULT_TRIALS, steps: int = DEFAULT_STEPS,
-         seed: int = 0, tuning_seed: int = TUNING_SEED, base: Optional[dict[str, Any]] = None,
+def tune(method: str, out: str | Path, trials: int = DEFAULT_TRIALS, steps: int = DEFAULT_STEPS,
+         seed: int = 0, tuning_seed: int = TUNING_SEED, base: dict[str, Any] | None = None,
          log: Callable[[str], None] = print) -> dict[str, Any]:
     """Run (or continue) the search until `trials` trials have finished (completed or pruned)."""
     import optuna
@@ -117,7 +117,7 @@ def tune(method: str, out: "str | Path", trials: int = DEFAULT_TRIALS, steps: in
         run = LeanPPO(cfg, run_dir, resume=resume)
         warmup = max(1, math.ceil(0.3 * steps / run.steps_per_update))
 
-        def report(row: dict[str, Any]) -> None:
+        def report(row: dict[str, Any], run: LeanPPO = run, trial: Any = trial, warmup: int = warmup) -> None:
             value = objective_value(run.train_rows)
             trial.report(value, row["update"])
             if row["update"] >= warmup and trial.should_prune():

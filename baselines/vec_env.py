@@ -20,8 +20,9 @@ in their infos, and the batch is reset at once -- exactly SB3's auto-reset seman
 from __future__ import annotations
 
 import time
+from collections.abc import Iterable, Sequence
 from copy import deepcopy
-from typing import Any, Iterable, Optional, Sequence, Union
+from typing import Any
 
 import numpy as np
 from gymnasium import spaces
@@ -32,7 +33,7 @@ from mahn_envs.core.params import TaskParams
 
 N_SENSOR_INPUTS = 7  #: six IR values then the come-home signal (the core's observation)
 
-Indices = Union[None, int, Iterable[int]]
+Indices = None | int | Iterable[int]
 
 #: per-robot columns of `PatrolReturnVecEnv.global_state`
 GLOBAL_ROBOT_FEATURES = ("x", "y", "sin_heading", "cos_heading", "signal", "turned", "reached_home",
@@ -44,7 +45,7 @@ def global_state_size(n_robots: int, n_pois: int) -> int:
     return 1 + n_robots * len(GLOBAL_ROBOT_FEATURES) + n_pois + 2
 
 
-def slot_observations(core_obs: np.ndarray, out: Optional[np.ndarray] = None) -> np.ndarray:
+def slot_observations(core_obs: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
     """Core observations (B, R, 7) -> slot observations (B*R, 7+R): the inputs then a one-hot agent index.
 
     Shared by the vector env, the evaluation policy adapter and the PettingZoo example so that a policy sees
@@ -64,7 +65,8 @@ class PatrolReturnVecEnv:
     """SB3 `VecEnv` of `n_episodes` lock-stepped episodes x R robots (num_envs = n_episodes * R).
 
     Rewards: every slot of an episode gets that episode's shared team reward times `reward_scale` (a constant
-    scale keeps the optimal policy and keeps the value targets in a range SB3's defaults handle).  The `episode` info written at the end of an episode (read by SB3's logger as
+    scale keeps the optimal policy and keeps the value targets in a range SB3's defaults handle).  The `episode`
+    info written at the end of an episode (read by SB3's logger as
     `rollout/ep_rew_mean`) is always the unscaled team fitness, the paper's score, so TensorBoard curves compare
     directly with evolution; infos then also carry `team_fitness` and `solved`.
 
@@ -73,7 +75,7 @@ class PatrolReturnVecEnv:
     (only relevant with noise or start jitter; the default task is deterministic).
     """
 
-    def __init__(self, n_episodes: int = 16, map: str = "plus", params: Optional[TaskParams] = None,
+    def __init__(self, n_episodes: int = 16, map: str = "plus", params: TaskParams | None = None,
                  reward_scale: float = 1.0, validate_actions: bool = True, **task_kwargs: Any) -> None:
         if params is not None and task_kwargs:
             raise ValueError("give either params=TaskParams(...) or task keyword arguments, not both")
@@ -93,12 +95,12 @@ class PatrolReturnVecEnv:
         self.render_mode = None
         self.metadata = {"render_modes": []}
         self.reset_infos: list[dict[str, Any]] = [{} for _ in range(self.num_envs)]
-        self._seeds: list[Optional[int]] = [None] * self.num_envs
+        self._seeds: list[int | None] = [None] * self.num_envs
         self._options: list[dict[str, Any]] = [{} for _ in range(self.num_envs)]
         self._obs = np.zeros((self.n_episodes, R, N_SENSOR_INPUTS + R), dtype=np.float32)
         self._obs[:, np.arange(R), N_SENSOR_INPUTS + np.arange(R)] = 1.0
-        self._actions: Optional[np.ndarray] = None
-        self._seed: Optional[int] = None
+        self._actions: np.ndarray | None = None
+        self._seed: int | None = None
         self._episode = 0  # episodes started since the last seeding
         self._t_start = time.perf_counter()
         self._needs_reset = True
@@ -108,7 +110,7 @@ class PatrolReturnVecEnv:
     def params(self) -> TaskParams:
         return self.sim.params
 
-    def seed(self, seed: Optional[int] = None) -> Sequence[Optional[int]]:
+    def seed(self, seed: int | None = None) -> Sequence[int | None]:
         """SB3 semantics: the seeds apply at the next `reset`; slot i nominally gets seed + i."""
         if seed is None:
             seed = int(np.random.randint(0, np.iinfo(np.uint32).max, dtype=np.uint32))
@@ -117,7 +119,7 @@ class PatrolReturnVecEnv:
         self._seeds = [int(seed) + i for i in range(self.num_envs)]
         return self._seeds
 
-    def set_options(self, options: Union[list[dict], dict, None] = None) -> None:
+    def set_options(self, options: list[dict] | dict | None = None) -> None:
         """Stored for API compatibility; the batch core takes no per-slot reset options."""
         if options is None:
             options = {}
@@ -161,7 +163,7 @@ class PatrolReturnVecEnv:
     def global_state_size(self) -> int:
         return global_state_size(self.n_robots, self.sim.goto.shape[1])
 
-    def global_state(self, out: Optional[np.ndarray] = None) -> np.ndarray:
+    def global_state(self, out: np.ndarray | None = None) -> np.ndarray:
         """The team's state as a centralised critic sees it: (n_episodes, global_state_size) float32.
 
         Columns: time (tick / max_cycles); per robot x, y (scaled to the map's extent), sin and cos of the
@@ -241,10 +243,10 @@ class PatrolReturnVecEnv:
     def close(self) -> None:
         pass
 
-    def get_images(self) -> Sequence[Optional[np.ndarray]]:
+    def get_images(self) -> Sequence[np.ndarray | None]:
         return [None] * self.num_envs
 
-    def render(self, mode: Optional[str] = None) -> None:
+    def render(self, mode: str | None = None) -> None:
         return None
 
     def _get_indices(self, indices: Indices) -> Iterable[int]:
@@ -274,10 +276,10 @@ class PatrolReturnVecEnv:
         return [False for _ in self._get_indices(indices)]
 
     @property
-    def unwrapped(self) -> "PatrolReturnVecEnv":
+    def unwrapped(self) -> PatrolReturnVecEnv:
         return self
 
-    def getattr_depth_check(self, name: str, already_found: bool) -> Optional[str]:
+    def getattr_depth_check(self, name: str, already_found: bool) -> str | None:
         if hasattr(self, name) and already_found:
             return f"{type(self).__module__}.{type(self).__name__}"
         return None

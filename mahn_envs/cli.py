@@ -59,8 +59,8 @@ def add_emulate_parser(subparsers) -> argparse.ArgumentParser:
 
 def run_emulate(args: argparse.Namespace) -> int:
     from .hardware import KheperaEmulator, parse_fault
-    from .hardware.emulator import LOOPBACK
     from .hardware.clock import RealClock
+    from .hardware.emulator import LOOPBACK
     from .hardware.kinematics import speed_unit_for_version
 
     if args.robots < 1:

@@ -4,8 +4,8 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Optional, Sequence
 
 from .config import INITS, TrainConfig, load_config_file
 from .cppn import CPPN_ACTIVATIONS
@@ -331,7 +331,7 @@ def cmd_eval(args) -> int:
             from .plots import save_gif, trajectory_plot
             from .protocols import sequential_episode
 
-            frames: Optional[list] = [] if args.video else None
+            frames: list | None = [] if args.video else None
             ep = sequential_episode(policy, map=args.map, params=params, seed=args.seed, record=True,
                                     frames=frames)
             if args.video:
@@ -388,7 +388,7 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def main(argv: Optional[Sequence[str]] = None) -> int:
+def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     try:

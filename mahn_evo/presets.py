@@ -13,7 +13,8 @@ override it.  docs/original-system.md lists where each value comes from.
 """
 from __future__ import annotations
 
-from typing import Any, Mapping
+from collections.abc import Mapping
+from typing import Any
 
 from .config import TrainConfig
 

@@ -18,9 +18,10 @@ experiment worker hold the folder's lock (folder_lock.py) while they write.
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable, Optional
+from typing import Any
 
 import numpy as np
 
@@ -61,7 +62,7 @@ class Progress:
     best_ever: float
     n_species: int
     solved: bool
-    first_solved: Optional[int]
+    first_solved: int | None
     seconds: float
 
 
@@ -83,7 +84,7 @@ class Trainer:
                                        aggregate=config.aggregate, quantile=config.quantile)
         self.rows: list[list] = []
         self.best_fitness = -np.inf
-        self.first_solved: Optional[int] = None
+        self.first_solved: int | None = None
         self.archived_fitness = -np.inf
         self.wall = 0.0
         remove_stray_temp_files(self.out)
@@ -222,7 +223,7 @@ class Trainer:
         return self.config.stop_when_solved and self.first_solved is not None and \
             self.generation > self.first_solved + self.config.after_solved
 
-    def run(self, on_generation: Optional[Callable[[Progress], None]] = None) -> dict:
+    def run(self, on_generation: Callable[[Progress], None] | None = None) -> dict:
         while not self.done():
             p = self.step()
             if on_generation is not None:
@@ -269,6 +270,6 @@ def _saved_values(saved: dict[str, Any], keys: list[str]) -> str:
 
 
 def train(config: TrainConfig, out_dir: str | Path, resume: bool = False,
-          on_generation: Optional[Callable[[Progress], None]] = None, overwrite: bool = False) -> dict:
+          on_generation: Callable[[Progress], None] | None = None, overwrite: bool = False) -> dict:
     """Python API of `mahn-evo train`: run (or continue, or replace) a run and return its summary."""
     return Trainer(config, out_dir, resume=resume, overwrite=overwrite).run(on_generation)

@@ -18,8 +18,9 @@ Three are provided; any object with these two methods (or a plain function for `
 """
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Any, Callable, Sequence, Union
+from typing import Any
 
 import numpy as np
 
@@ -104,7 +105,7 @@ class _FunctionCalibration:
                                   "emulator an object with to_raw()")
 
 
-Calibration = Union[LogCalibration, LinearCalibration, TableCalibration, Any]
+Calibration = LogCalibration | LinearCalibration | TableCalibration | Any
 
 PAPER = LogCalibration()
 LINEAR = LinearCalibration()

@@ -14,8 +14,9 @@ from __future__ import annotations
 
 import math
 import threading
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any, Mapping, Optional, Sequence, Union
+from typing import Any
 
 import numpy as np
 
@@ -48,11 +49,11 @@ class EmulatedWorld:
     Thread-safe: every public method takes the world lock, so one server thread per robot can share it.
     """
 
-    def __init__(self, map: Union[str, World] = "plus", n_robots: Optional[int] = None, *, clock: Any = None,
+    def __init__(self, map: str | World = "plus", n_robots: int | None = None, *, clock: Any = None,
                  model: KheperaModel = DEFAULT_MODEL, wheel_base: float = WHEEL_BASE_CM,
                  speed_unit: float = SPEED_UNIT_V3, firmware: tuple[int, int] = (3, 0), calibration: Any = PAPER,
                  noise: float = 1.0, seed: int = 0, robots_see_each_other: bool = False,
-                 max_substep: float = 0.005, watchdog: Optional[float] = None,
+                 max_substep: float = 0.005, watchdog: float | None = None,
                  motors_need_init: bool = True) -> None:
         self.world = load_map(map)
         n = self.world.n_robots if n_robots is None else int(n_robots)
@@ -87,18 +88,19 @@ class EmulatedWorld:
         now = self.clock.now()
         self.time = now
         self.robots = [RobotState(pose=self.world.starts[k].copy(), last_command=now, stamp0=now,
-                                  motors_on=not motors_need_init, rng=np.random.default_rng([int(seed) & 0xFFFFFFFF, k]))
+                                  motors_on=not motors_need_init,
+                                  rng=np.random.default_rng([int(seed) & 0xFFFFFFFF, k]))
                        for k in range(n)]
 
     # ------------------------------------------------------------------ time
-    def advance(self, now: Optional[float] = None) -> None:
+    def advance(self, now: float | None = None) -> None:
         """Move every robot from the last update to `now` (default: the clock's now)."""
         with self._lock:
             t1 = self.clock.now() if now is None else float(now)
             t0 = self.time
             if t1 <= t0:
                 return
-            for k, rob in enumerate(self.robots):
+            for rob in self.robots:
                 start = t0
                 if self.watchdog is not None and rob.left | rob.right:
                     cutoff = rob.last_command + self.watchdog
@@ -210,7 +212,7 @@ class EmulatedWorld:
             self.advance()
             return np.array([r.pose for r in self.robots])
 
-    def place(self, poses: Union[Mapping[Any, Sequence[float]], Sequence[Sequence[float]], np.ndarray]) -> None:
+    def place(self, poses: Mapping[Any, Sequence[float]] | Sequence[Sequence[float]] | np.ndarray) -> None:
         """Put robots at poses (what the operator does by hand).  Keys may be indices or 'robot_k' names."""
         with self._lock:
             self.advance()

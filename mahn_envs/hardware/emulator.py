@@ -21,7 +21,7 @@ import threading
 import time
 from collections import deque
 from dataclasses import dataclass
-from typing import Any, Optional
+from typing import Any
 
 from . import protocol as P
 from .emulated_world import EmulatedWorld
@@ -42,8 +42,8 @@ class Fault:
 
     robot: int
     kind: str
-    count: Optional[int] = 1
-    letters: Optional[str] = None
+    count: int | None = 1
+    letters: str | None = None
     delay: float = 1.0
     hits: int = 0
 
@@ -71,7 +71,7 @@ def parse_fault(spec: str) -> Fault:
         raise ValueError(f"fault spec {spec!r} must be ROBOT:KIND[:COUNT[:LETTERS[:DELAY]]]")
     try:
         robot = int(parts[0])
-        count: Optional[int] = 1
+        count: int | None = 1
         if len(parts) > 2 and parts[2]:
             count = None if parts[2] == "forever" else int(parts[2])
         letters = parts[3] if len(parts) > 3 and parts[3] else None
@@ -88,8 +88,8 @@ class KheperaEmulator:
     """
 
     def __init__(self, n_robots: int = 3, *, host: str = "127.0.0.1", port: int = 0,
-                 world: Optional[EmulatedWorld] = None, eol: str = "\r\n", allow_remote: bool = False,
-                 idle_timeout: Optional[float] = 60.0, log_bytes: int = 4_000_000, **world_kwargs: Any) -> None:
+                 world: EmulatedWorld | None = None, eol: str = "\r\n", allow_remote: bool = False,
+                 idle_timeout: float | None = 60.0, log_bytes: int = 4_000_000, **world_kwargs: Any) -> None:
         if host not in LOOPBACK and not allow_remote:
             raise ValueError(f"the emulator binds loopback only unless allow_remote=True (got host {host!r})")
         if not 0 <= int(port) <= 65535:
@@ -110,7 +110,7 @@ class KheperaEmulator:
         self._stop = threading.Event()
         self._listeners: list[socket.socket] = []
         self._threads: list[threading.Thread] = []
-        self._conns: list[Optional[socket.socket]] = [None] * n_robots
+        self._conns: list[socket.socket | None] = [None] * n_robots
         self.idle_timeout = idle_timeout
         self.log_bytes = log_bytes
         self._log: list[deque] = [deque() for _ in range(n_robots)]
@@ -121,7 +121,7 @@ class KheperaEmulator:
         self.addresses: list[tuple[str, int]] = []
 
     # ------------------------------------------------------------------ lifecycle
-    def start(self) -> "KheperaEmulator":
+    def start(self) -> KheperaEmulator:
         if self._threads:
             return self
         try:
@@ -159,7 +159,7 @@ class KheperaEmulator:
         if alive:
             raise RuntimeError(f"emulator threads did not stop: {alive}")
 
-    def __enter__(self) -> "KheperaEmulator":
+    def __enter__(self) -> KheperaEmulator:
         return self.start()
 
     def __exit__(self, *exc: Any) -> None:
@@ -171,7 +171,7 @@ class KheperaEmulator:
         return [f"socket://{h if ':' not in h else '[' + h + ']'}:{p}" for h, p in self.addresses]
 
     # ------------------------------------------------------------------ faults and inspection
-    def inject(self, robot: int, kind: str, count: Optional[int] = 1, letters: Optional[str] = None,
+    def inject(self, robot: int, kind: str, count: int | None = 1, letters: str | None = None,
                delay: float = 1.0) -> Fault:
         fault = Fault(robot, kind, count, letters, delay)
         if not 0 <= robot < self.n_robots:
@@ -201,7 +201,7 @@ class KheperaEmulator:
         self.world.place(poses)
 
     # ------------------------------------------------------------------ serving
-    def _take_fault(self, robot: int, letter: str) -> Optional[Fault]:
+    def _take_fault(self, robot: int, letter: str) -> Fault | None:
         with self._faults_lock:
             for f in self._faults:
                 if f.matches(robot, letter):
@@ -214,7 +214,7 @@ class KheperaEmulator:
         while not self._stop.is_set():
             try:
                 conn, _ = listener.accept()
-            except socket.timeout:
+            except TimeoutError:
                 continue
             except OSError:
                 return
@@ -234,7 +234,7 @@ class KheperaEmulator:
         while not self._stop.is_set():
             try:
                 chunk = conn.recv(4096)
-            except socket.timeout:
+            except TimeoutError:
                 if self.idle_timeout is not None and time.monotonic() - last_input > self.idle_timeout:
                     self.idle_disconnects[k] += 1
                     return  # an idle client must not hold the robot's port forever
@@ -330,7 +330,7 @@ class KheperaEmulator:
 _CLOSE = object()
 
 
-def _close(s: Optional[socket.socket]) -> None:
+def _close(s: socket.socket | None) -> None:
     if s is None:
         return
     try:

@@ -29,7 +29,8 @@ import signal as _signal
 import threading
 import time
 import warnings
-from typing import Any, Callable, Mapping, Optional, Sequence, Union
+from collections.abc import Callable, Mapping, Sequence
+from typing import Any
 
 import numpy as np
 from gymnasium import spaces
@@ -44,7 +45,7 @@ from . import protocol as P
 from .calibration import make_calibration
 from .clock import RealClock
 from .errors import HardwareError, ProtocolError
-from .kinematics import WHEEL_BASE_CM, Drive, speed_unit_for_version, SPEED_UNIT_V3
+from .kinematics import SPEED_UNIT_V3, WHEEL_BASE_CM, Drive, speed_unit_for_version
 from .reflex import reflex_motion
 from .transport import RetryPolicy, RobotLink, open_url
 
@@ -53,7 +54,7 @@ NEVER_CONNECTED = "never connected: no command was sent to it"
 Placement = Callable[[dict], None]
 
 
-def prompt_placement(targets: Mapping[str, Optional[tuple]], input_fn: Optional[Callable[[str], str]] = None,
+def prompt_placement(targets: Mapping[str, tuple | None], input_fn: Callable[[str], str] | None = None,
                      print_fn: Callable[..., None] = print) -> None:
     """Ask the operator to put the robots at their start poses and press Enter.  Without a terminal (stdin at
     its end) this is a RuntimeError that names ``--placement none``, not an EOFError traceback."""
@@ -85,7 +86,7 @@ class _Stopper:
     every `interval` seconds, until one of its own writes is answered (see transport: a late reply to an
     earlier command never counts) or it is cancelled.  The thread owns the link while it runs."""
 
-    def __init__(self, env: "KheperaHardwareEnv", link: RobotLink, interval: float) -> None:
+    def __init__(self, env: KheperaHardwareEnv, link: RobotLink, interval: float) -> None:
         self.env, self.link, self.interval = env, link, interval
         self.confirmed = threading.Event()
         self.cancelled = threading.Event()
@@ -126,16 +127,16 @@ class KheperaHardwareEnv(ParallelEnv):
     metadata = {"name": "khepera_hardware_v0", "render_modes": ["human", "rgb_array"], "render_fps": 30,
                 "is_parallelizable": True}
 
-    def __init__(self, ports: Sequence[str], *, map: Union[str, World] = "plus",
-                 forward_speed: Optional[float] = None, turn_rate: Optional[float] = None,
-                 wheel_base: float = WHEEL_BASE_CM, speed_unit: Union[str, float, Sequence[float]] = "auto",
-                 calibration: Any = "paper", sensor_floor: Optional[float] = None, reflex: bool = True,
-                 period: Optional[float] = None, time_scale: float = 1.0, clock: Any = None,
+    def __init__(self, ports: Sequence[str], *, map: str | World = "plus",
+                 forward_speed: float | None = None, turn_rate: float | None = None,
+                 wheel_base: float = WHEEL_BASE_CM, speed_unit: str | float | Sequence[float] = "auto",
+                 calibration: Any = "paper", sensor_floor: float | None = None, reflex: bool = True,
+                 period: float | None = None, time_scale: float = 1.0, clock: Any = None,
                  max_cycles: int = 1364, signal_tick: int = 690, auto_signal: bool = True,
-                 signal_schedule: Optional[Mapping[str, int]] = None,
-                 placement: Union[str, Placement, None] = "prompt", pose_source: Optional[PoseSource] = None,
-                 retry: Optional[RetryPolicy] = None, baudrate: int = 115200, eol: str = "\n",
-                 render_mode: Optional[str] = None, model: KheperaModel = DEFAULT_MODEL,
+                 signal_schedule: Mapping[str, int] | None = None,
+                 placement: str | Placement | None = "prompt", pose_source: PoseSource | None = None,
+                 retry: RetryPolicy | None = None, baudrate: int = 115200, eol: str = "\n",
+                 render_mode: str | None = None, model: KheperaModel = DEFAULT_MODEL,
                  catch_sigterm: bool = True, opener: Callable = open_url) -> None:
         self._links: list[RobotLink] = []
         self._closed = False
@@ -204,10 +205,10 @@ class KheperaHardwareEnv(ParallelEnv):
         self._deadline = 0.0
         self._period_measured = 0.0
         self.overruns = 0
-        self.last_stop_report: dict[str, Optional[str]] = {}
+        self.last_stop_report: dict[str, str | None] = {}
         self._stoppers: dict[str, _Stopper] = {}
         self._report_lock = threading.Lock()
-        self.firmware: dict[str, Optional[tuple[int, int]]] = {}
+        self.firmware: dict[str, tuple[int, int] | None] = {}
         self.speed_units: list[float] = []
         # connect; on any failure stop and close what was opened
         self._atexit_hook = self._at_exit
@@ -221,7 +222,7 @@ class KheperaHardwareEnv(ParallelEnv):
             raise
 
     # ------------------------------------------------------------------ configuration checks
-    def _check_schedule(self, schedule: Optional[Mapping[str, int]]) -> dict[str, int]:
+    def _check_schedule(self, schedule: Mapping[str, int] | None) -> dict[str, int]:
         if schedule is None:
             return {}
         if not isinstance(schedule, Mapping):
@@ -263,7 +264,7 @@ class KheperaHardwareEnv(ParallelEnv):
         if isinstance(speed_unit, str):
             if speed_unit != "auto":
                 raise ValueError(f"speed_unit must be 'auto', a number or one number per robot, got {speed_unit!r}")
-            units: list[Optional[float]] = [None] * n
+            units: list[float | None] = [None] * n
         elif isinstance(speed_unit, (int, float)) and not isinstance(speed_unit, bool):
             units = [float(speed_unit)] * n
         else:
@@ -356,7 +357,7 @@ class KheperaHardwareEnv(ParallelEnv):
         obs[:, 6] = self._rflag[0, :, T.F_SIGNAL]
         return {a: obs[k] for k, a in enumerate(self.agents)}
 
-    def _info(self, k: int, extra: Optional[dict] = None) -> dict[str, Any]:
+    def _info(self, k: int, extra: dict | None = None) -> dict[str, Any]:
         p = self._pose[0, k]
         info = {"pose": None if not np.all(np.isfinite(p[:3])) else (float(p[0]), float(p[1]), float(p[2])),
                 "signal": bool(self._rflag[0, k, T.F_SIGNAL]), "tick": self._tick,
@@ -366,7 +367,7 @@ class KheperaHardwareEnv(ParallelEnv):
         return info
 
     # ------------------------------------------------------------------ episode
-    def reset(self, seed: Optional[int] = None, options: Optional[dict] = None):
+    def reset(self, seed: int | None = None, options: dict | None = None):
         """Stop the robots, let the operator place them, read the sensors.  `seed` only seeds the spaces
         (hardware has no randomness to seed); ``options['poses']`` = {agent: (x, y, heading)} targets."""
         self._check_open()
@@ -377,7 +378,7 @@ class KheperaHardwareEnv(ParallelEnv):
             self._emergency_stop(exc)
             raise
 
-    def _reset(self, seed: Optional[int], options: Optional[dict]):
+    def _reset(self, seed: int | None, options: dict | None):
         if seed is not None:
             if seed < 0:
                 raise ValueError(f"seed must be a non-negative integer, got {seed}")
@@ -388,7 +389,7 @@ class KheperaHardwareEnv(ParallelEnv):
         poses = options.pop("poses", None)
         if options:
             raise ValueError(f"unknown reset option(s) {sorted(options)}; known: ['poses']")
-        targets: dict[str, Optional[tuple]] = {}
+        targets: dict[str, tuple | None] = {}
         for k, a in enumerate(self.possible_agents):
             targets[a] = tuple(float(v) for v in self.world.starts[k]) if k < self.world.n_robots else None
         if poses is not None:
@@ -513,7 +514,7 @@ class KheperaHardwareEnv(ParallelEnv):
             raise ValueError(f"unknown agent {agent!r}; agents are {self.possible_agents}") from None
 
     # ------------------------------------------------------------------ safety
-    def stop_all(self) -> dict[str, Optional[str]]:
+    def stop_all(self) -> dict[str, str | None]:
         """Send every robot a stop, all in parallel (one thread per robot), and wait until each stop is
         confirmed by its own reply or the stop policy's attempts have passed (timeout x attempts, 0.8 s by
         default).  A stop that is not confirmed by then is reported as "unconfirmed" (with a warning) and
@@ -557,7 +558,7 @@ class KheperaHardwareEnv(ParallelEnv):
         """Robots whose stop is still being resent in the background."""
         return [name for name, s in self._stoppers.items() if not s.confirmed.is_set()]
 
-    def wait_stops(self, timeout: Optional[float] = None) -> list[str]:
+    def wait_stops(self, timeout: float | None = None) -> list[str]:
         """Wait (at most `timeout` seconds) for the background stops to be confirmed; returns the robots
         still unconfirmed."""
         deadline = None if timeout is None else time.monotonic() + timeout
@@ -638,7 +639,7 @@ class KheperaHardwareEnv(ParallelEnv):
         except Exception:  # noqa: BLE001 - at exit, stopping is all that matters
             pass
 
-    def __enter__(self) -> "KheperaHardwareEnv":
+    def __enter__(self) -> KheperaHardwareEnv:
         return self
 
     def __exit__(self, *exc: Any) -> None:

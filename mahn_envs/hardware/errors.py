@@ -2,13 +2,11 @@
 because on a bench with three robots the first question after a failure is always "which one, doing what?"."""
 from __future__ import annotations
 
-from typing import Optional
-
 
 class HardwareError(RuntimeError):
     """Base class: something went wrong talking to a robot."""
 
-    def __init__(self, robot: str, command: str, message: str, reply: Optional[str] = None) -> None:
+    def __init__(self, robot: str, command: str, message: str, reply: str | None = None) -> None:
         self.robot = robot
         self.command = command
         self.reply = reply

@@ -23,7 +23,6 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass
-from typing import Union
 
 from .errors import ProtocolError
 
@@ -129,10 +128,10 @@ class SensorReading:
         return tuple(self.values[i] for i in FRONT_SENSORS)
 
 
-Reply = Union[Ack, Version, Speeds, SensorReading]
+Reply = Ack | Version | Speeds | SensorReading
 
 
-def _line_text(line: Union[bytes, str], robot: str, command: str) -> str:
+def _line_text(line: bytes | str, robot: str, command: str) -> str:
     """Strip exactly one line end (``\\n`` or ``\\r\\n``) and check the rest is printable ASCII."""
     if isinstance(line, bytes):
         try:
@@ -161,7 +160,7 @@ def _ints(fields: list[str], robot: str, command: str, reply: str, unsigned: boo
     return out
 
 
-def parse_reply(line: Union[bytes, str], command: Union[Command, str], robot: str = "?") -> Reply:
+def parse_reply(line: bytes | str, command: Command | str, robot: str = "?") -> Reply:
     """Parse the reply to `command` strictly; raise :class:`ProtocolError` for anything else."""
     cmd = command.text if isinstance(command, Command) else str(command)
     letter = cmd[:1]
@@ -196,7 +195,7 @@ def parse_reply(line: Union[bytes, str], command: Union[Command, str], robot: st
 
 
 # ---------------------------------------------------------------------------------------------- robot side
-def parse_command(line: Union[bytes, str]) -> Command:
+def parse_command(line: bytes | str) -> Command:
     """Parse a command line as the robot does (used by the emulator).  Raises ValueError when the robot would
     answer ``$``.  Stricter than ``kh3server``: ``D`` needs exactly two ``l``-prefixed 32-bit integers."""
     text = line.decode("ascii") if isinstance(line, bytes) else line

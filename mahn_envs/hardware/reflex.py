@@ -17,8 +17,8 @@ Comparisons are float32 like the simulator's.
 """
 from __future__ import annotations
 
+from collections.abc import Sequence
 from enum import IntEnum
-from typing import Sequence
 
 import numpy as np
 

@@ -40,8 +40,9 @@ from __future__ import annotations
 import threading
 import time
 from collections import deque
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any, Callable, Optional
+from typing import Any
 
 from . import protocol as P
 from .errors import LinkError, ProtocolError, RobotTimeout
@@ -113,7 +114,7 @@ class _Writes:
     """Consecutive writes of one command (its attempts) that no reply has been attributed to yet."""
 
     command_id: int
-    letter: Optional[str]  # the reply letter its command expects (None: no known reply)
+    letter: str | None  # the reply letter its command expects (None: no known reply)
     count: int
 
 
@@ -134,7 +135,7 @@ class RobotLink:
             raise ValueError(f"eol must be '\\n', '\\r\\n' or '\\r', got {self.eol!r}")
         self._port: Any = None
         self._buf = bytearray()
-        self._pending: Optional[P.Command] = None
+        self._pending: P.Command | None = None
         self._pending_id = 0
         self._next_id = 0
         self._sent = False
@@ -151,7 +152,7 @@ class RobotLink:
         """Writes on this line that no reply has been attributed to yet (late replies may still come)."""
         return sum(w.count for w in self._queue)
 
-    def open(self) -> "RobotLink":
+    def open(self) -> RobotLink:
         if self._port is None:
             try:
                 # a short per-read timeout: whole-line deadlines are enforced here, not by pyserial
@@ -176,7 +177,7 @@ class RobotLink:
         self.open()
 
     # ------------------------------------------------------------------ commands
-    def transact(self, command: P.Command, policy: Optional[RetryPolicy] = None) -> P.Reply:
+    def transact(self, command: P.Command, policy: RetryPolicy | None = None) -> P.Reply:
         """Send `command` and return its parsed reply (with the retry policy, or `policy` for this one)."""
         self.send(command)
         return self.finish(policy)
@@ -194,7 +195,7 @@ class RobotLink:
         self._begin(command)
         self._sent = self._write(command)
 
-    def finish(self, policy: Optional[RetryPolicy] = None) -> P.Reply:
+    def finish(self, policy: RetryPolicy | None = None) -> P.Reply:
         """Read the reply to the pending command, resending on timeout and reopening a dropped link."""
         policy = policy or self.policy
         command = self._pending
@@ -233,7 +234,7 @@ class RobotLink:
             self._pending = None  # its writes stay queued: a late reply to them is recognised as stale
 
     def transact_until_answered(self, command: P.Command, interval: float, cancelled: threading.Event,
-                                on_error: Optional[Callable[[Exception], None]] = None) -> Optional[P.Reply]:
+                                on_error: Callable[[Exception], None] | None = None) -> P.Reply | None:
         """Send `command` and resend it every `interval` seconds, reopening the link as often as needed, until
         one of its own writes is answered (the reply is returned) or `cancelled` is set (None is returned).
 
@@ -302,7 +303,7 @@ class RobotLink:
         except _link_errors():
             return False
 
-    def _attribute(self, letter: str) -> Optional[int]:
+    def _attribute(self, letter: str) -> int | None:
         """The id of the command whose queued write the reply `letter` answers (None: no queued write fits).
         The oldest fitting write is consumed and older writes of other letters are popped as lost."""
         queue = self._queue

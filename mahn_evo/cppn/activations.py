@@ -7,7 +7,7 @@ a small integer code so an evaluation plan can be stored as plain arrays (usable
 
 from __future__ import annotations
 
-from typing import Callable
+from collections.abc import Callable
 
 import numpy as np
 

@@ -115,7 +115,7 @@ class CppnPlan:
         return np.ascontiguousarray(v[self.output_slots].T)
 
 
-def compile_cppn(genome: "Genome", evaluate_modules: bool = False) -> CppnPlan:
+def compile_cppn(genome: Genome, evaluate_modules: bool = False) -> CppnPlan:
     """Run the original's depth-first activation order once and record it as a :class:`CppnPlan`."""
     kinds = {n.id: n.kind for n in genome.nodes}
     acts = {n.id: n.activation for n in genome.nodes}

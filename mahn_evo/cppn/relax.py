@@ -136,7 +136,7 @@ class RelaxPlan:
                       self.mod_out, self.output_idx, self.steps)
 
 
-def compile_relax(genome: "Genome") -> RelaxPlan:
+def compile_relax(genome: Genome) -> RelaxPlan:
     """Index a genome's nodes (bias, inputs in id order, then the rest in genome order) for :func:`_relax`."""
     bias = [n.id for n in genome.nodes if n.kind == "bias"]
     if len(bias) != 1:

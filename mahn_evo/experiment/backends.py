@@ -14,11 +14,12 @@ from __future__ import annotations
 import os
 import sys
 import time
+from collections.abc import Callable, Sequence
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
 from multiprocessing import get_context
 from pathlib import Path
-from typing import Any, Callable, Optional, Sequence
+from typing import Any
 
 BACKENDS = ("local", "ray")
 
@@ -101,7 +102,7 @@ def _threads_per_run(workers: int) -> int:
     return max(1, (os.cpu_count() or 1) // max(1, workers))
 
 
-def run_local(tasks: Sequence[Task], workers: int, on_done: Optional[Callable[[str, dict], None]] = None
+def run_local(tasks: Sequence[Task], workers: int, on_done: Callable[[str, dict], None] | None = None
               ) -> dict[str, dict[str, Any]]:
     """Runs in `workers` fresh processes (spawned: numba's thread pools do not survive a fork)."""
     threads = _threads_per_run(workers)
@@ -145,8 +146,8 @@ def run_local(tasks: Sequence[Task], workers: int, on_done: Optional[Callable[[s
     return results
 
 
-def run_ray(tasks: Sequence[Task], workers: int, address: Optional[str] = None,
-            on_done: Optional[Callable[[str, dict], None]] = None) -> dict[str, dict[str, Any]]:
+def run_ray(tasks: Sequence[Task], workers: int, address: str | None = None,
+            on_done: Callable[[str, dict], None] | None = None) -> dict[str, dict[str, Any]]:
     """Runs as Ray tasks: on a running cluster (`address`) or on a local Ray instance of `workers` CPUs."""
     try:
         import ray
@@ -191,8 +192,8 @@ def _raise_errors(errors: dict[str, str]) -> None:
                            f"them): {lines}")
 
 
-def run_tasks(tasks: Sequence[Task], backend: str = "local", workers: int = 2, address: Optional[str] = None,
-              on_done: Optional[Callable[[str, dict], None]] = None) -> dict[str, dict[str, Any]]:
+def run_tasks(tasks: Sequence[Task], backend: str = "local", workers: int = 2, address: str | None = None,
+              on_done: Callable[[str, dict], None] | None = None) -> dict[str, dict[str, Any]]:
     if backend not in BACKENDS:
         raise ValueError(f"backend must be one of {BACKENDS}, got {backend!r}")
     if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:

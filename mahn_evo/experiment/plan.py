@@ -7,9 +7,10 @@ the table meaningless.
 """
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field, fields
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any
 
 from mahn_envs.core.rng import check_seed
 
@@ -89,7 +90,7 @@ class ExperimentPlan:
         task.update(max_cycles=self.max_cycles, signal_tick=self.signal_tick)
         return TrainConfig.from_mapping({**base.to_dict(), "task": task})
 
-    def tasks(self, out: "str | Path") -> list[tuple[str, int, Path]]:
+    def tasks(self, out: str | Path) -> list[tuple[str, int, Path]]:
         """(mode, seed, run folder) for every run, seeds interleaved across modes so partial results stay paired."""
         root = Path(out) / "runs"
         return [(m, s, root / self.run_name(m, s)) for s in self.seeds() for m in self.modes]
@@ -102,7 +103,7 @@ class ExperimentPlan:
         return d
 
     @classmethod
-    def from_mapping(cls, data: Mapping[str, Any]) -> "ExperimentPlan":
+    def from_mapping(cls, data: Mapping[str, Any]) -> ExperimentPlan:
         names = {f.name for f in fields(cls)}
         unknown = set(data) - names - {"kind", "version"}
         if unknown:
@@ -110,18 +111,19 @@ class ExperimentPlan:
         return cls(**{k: v for k, v in data.items() if k in names})
 
     @classmethod
-    def load(cls, out: "str | Path") -> "ExperimentPlan":
+    def load(cls, out: str | Path) -> ExperimentPlan:
         data = read_versioned_json(Path(out) / PLAN_FILE, "experiment")
         # a plan saved before these NEAT rules were recorded ran with the old ones (see LEGACY_VALUES)
         return cls.from_mapping({**data, "neat": with_legacy_values(data.get("neat", {}))})
 
-    def save_or_check(self, out: "str | Path") -> None:
+    def save_or_check(self, out: str | Path) -> None:
         """Write experiment.json, or refuse if the folder holds an experiment with another plan."""
         path = Path(out) / PLAN_FILE
         if path.exists():
             saved = ExperimentPlan.load(out)
             a, b = saved.to_dict(), self.to_dict()
-            differing = sorted(k for k in a if a[k] != b[k] and k not in ("runs", "top", "general_episodes", "transfer_episodes", "replays"))
+            may_change = ("runs", "top", "general_episodes", "transfer_episodes", "replays")
+            differing = sorted(k for k in a if a[k] != b[k] and k not in may_change)
             if differing:
                 hint = ""
                 if "neat" in differing:

@@ -3,8 +3,9 @@ the published figures), runs.csv, and figures/ (fitness curves with spread, frac
 generation, and the paths of the transferred teams)."""
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 
@@ -20,7 +21,7 @@ from .transfer import TRANSFER_MAPS, most_general, replays, trajectories, transf
 MODE_COLOURS = {"situational": "#0f9d58", "standard": "#4285f4"}
 
 
-def write_results(plan: ExperimentPlan, out: "str | Path", runs_wall_seconds: float = 0.0,
+def write_results(plan: ExperimentPlan, out: str | Path, runs_wall_seconds: float = 0.0,
                   log: Callable[[str], None] = print) -> dict[str, Any]:
     out = Path(out)
     runs = load_runs(plan, out)
@@ -33,7 +34,7 @@ def write_results(plan: ExperimentPlan, out: "str | Path", runs_wall_seconds: fl
             e["transfer"] = transfer_tests(Champion.load(out / e["file"]), plan)
     figures = _figures(plan, out, runs, general)
     films = []
-    for mode, entries in general.items():
+    for entries in general.values():
         for e in entries[:plan.replays]:
             films += [str(p.relative_to(out)) for p in replays(Champion.load(out / e["file"]), out / "replays",
                                                                e["run"], seed=plan.seed)]
@@ -70,7 +71,8 @@ def markdown(results: dict[str, Any]) -> str:
     lines = ["# Experiment results", "",
              f"Modes {', '.join(plan['modes'])}; {plan['runs']} runs per mode (seeds {plan['seed']}–"
              f"{plan['seed'] + plan['runs'] - 1}); population {plan['population']}; at most {plan['generations']} "
-             f"generations; init `{plan['init']}`{' with Multiply modules evaluated' if plan['evaluate_modules'] else ''}"
+             f"generations; init `{plan['init']}`"
+             f"{' with Multiply modules evaluated' if plan['evaluate_modules'] else ''}"
              f"; map `{plan['map']}`; episodes of {plan['max_cycles']} ticks. Written by `mahn-evo experiment`.", "",
              "## Solved runs", "",
              "| mode | runs finished | in progress | solved | generations to solve: mean | sd | median | range | "
@@ -97,7 +99,8 @@ def markdown(results: dict[str, Any]) -> str:
               "protocol in the pymunk engine (robots called home one at a time, sent back out); success = every "
               f"robot reaches its post, returns and goes back out. Noisy columns: {plan['transfer_episodes']} "
               "episodes with the generalisation noise. Ties: the share of the team's decisions on the training "
-              "map that are exact ties of the top two outputs / near-ties (< 0.001) / the number of decisions that input "
+              "map that are exact ties of the top two outputs / near-ties (< 0.001) / the number of decisions that "
+              "input "
               "jitter of +-1e-4 flips; ties are harmless, flips are not (see `mahn-evo eval --margins`).", ""]
     head = "| mode | run | generation | solution | general: solved / mean fitness | ties |"
     sub = "|---|---|---|---|---|---|"

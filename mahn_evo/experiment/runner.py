@@ -7,8 +7,9 @@ plan (experiment.json) -> independent seeded runs (runs/<mode>_sNNN, local proce
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any, Callable, Optional
+from typing import Any
 
 from ..files import remove_stray_temp_files
 from ..folder_lock import folder_lock, lock_holder
@@ -17,8 +18,8 @@ from .plan import PLAN_FILE, ExperimentPlan
 from .report import write_results
 
 
-def run_experiment(plan: ExperimentPlan, out: "str | Path", backend: str = "local", workers: int = 2,
-                   address: Optional[str] = None, analyse: bool = True, run: bool = True,
+def run_experiment(plan: ExperimentPlan, out: str | Path, backend: str = "local", workers: int = 2,
+                   address: str | None = None, analyse: bool = True, run: bool = True,
                    log: Callable[[str], None] = print) -> dict[str, Any]:
     out = Path(out)
     if not run:  # report on the experiment as saved, whatever plan the caller passed

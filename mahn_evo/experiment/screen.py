@@ -7,8 +7,9 @@ exact test, and a survival plot shows the fraction of runs solved by each genera
 """
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -22,7 +23,7 @@ def _variant_runs(folder: Path, mode: str) -> tuple[ExperimentPlan, dict[int, Ru
     return plan, {r.seed: r for r in load_runs(plan, folder) if r.mode == mode and r.finished}
 
 
-def screen_results(folders: Sequence["str | Path"], baseline: str, mode: str = "situational") -> dict[str, Any]:
+def screen_results(folders: Sequence[str | Path], baseline: str, mode: str = "situational") -> dict[str, Any]:
     """Per variant (folder name): solved / runs on the common finished seeds, generations to solve, Fisher's exact
     test against `baseline`, and the survival curve (fraction solved by each generation)."""
     from scipy.stats import fisher_exact
@@ -80,7 +81,7 @@ def screen_markdown(res: dict[str, Any]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def survival_plot(res: dict[str, Any], path: "str | Path") -> None:
+def survival_plot(res: dict[str, Any], path: str | Path) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -101,7 +102,7 @@ def survival_plot(res: dict[str, Any], path: "str | Path") -> None:
     plt.close(fig)
 
 
-def write_screen(folders: Sequence["str | Path"], baseline: str, out: "str | Path",
+def write_screen(folders: Sequence[str | Path], baseline: str, out: str | Path,
                  mode: str = "situational") -> dict[str, Any]:
     """screen.json, screen.md and survival.png in `out`."""
     res = screen_results(folders, baseline, mode)

@@ -9,7 +9,7 @@ from __future__ import annotations
 import csv
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Optional
+from typing import Any
 
 import numpy as np
 
@@ -34,13 +34,13 @@ class RunRecord:
     finished: bool
     generations: int  # generations run so far
     solved: bool
-    first_solved: Optional[int]  # 0-based generation index of the first solution
-    best_fitness: Optional[float]
+    first_solved: int | None  # 0-based generation index of the first solution
+    best_fitness: float | None
     wall_seconds: float
     best_ever: np.ndarray  # per generation
 
     @property
-    def generations_to_solve(self) -> Optional[int]:
+    def generations_to_solve(self) -> int | None:
         """Generations evaluated up to and including the first solution (1-based, as the paper counts)."""
         return None if self.first_solved is None else self.first_solved + 1
 
@@ -76,7 +76,7 @@ def load_run(plan: ExperimentPlan, mode: str, seed: int, folder: Path) -> RunRec
                      float(best.max()) if gens else None, wall, best)
 
 
-def load_runs(plan: ExperimentPlan, out: "str | Path") -> list[RunRecord]:
+def load_runs(plan: ExperimentPlan, out: str | Path) -> list[RunRecord]:
     return [load_run(plan, m, s, f) for m, s, f in plan.tasks(out)]
 
 
@@ -101,7 +101,7 @@ def mode_table(plan: ExperimentPlan, runs: list[RunRecord]) -> dict[str, dict[st
     return table
 
 
-def fisher(table: dict[str, dict[str, Any]], modes: tuple[str, ...]) -> Optional[dict[str, Any]]:
+def fisher(table: dict[str, dict[str, Any]], modes: tuple[str, ...]) -> dict[str, Any] | None:
     """Two-sided Fisher's exact test on solved / not solved between the first two modes."""
     if len(modes) < 2:
         return None

@@ -7,8 +7,9 @@ simulation, exactly and under the generalisation noise.
 """
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any, Callable, Optional
+from typing import Any
 
 import numpy as np
 
@@ -94,9 +95,9 @@ def replays(champ: Champion, folder: Path, stem: str, seed: int = 0) -> list[Pat
     return written
 
 
-def trajectories(champ: Champion, seed: int = 0) -> dict[str, tuple[np.ndarray, Optional[int]]]:
+def trajectories(champ: Champion, seed: int = 0) -> dict[str, tuple[np.ndarray, int | None]]:
     """Paths for the figure: (T, R, >=2) per map and protocol, with the signal tick where there is one."""
-    paths: dict[str, tuple[np.ndarray, Optional[int]]] = {}
+    paths: dict[str, tuple[np.ndarray, int | None]] = {}
     for m in TRANSFER_MAPS:
         sim = BatchSim(m, 1)
         res = sim.run_controllers(champ.controllers, record=True)

@@ -13,7 +13,8 @@ modules such as the seed genome's Multiply modules.
 
 from __future__ import annotations
 
-from typing import Any, Iterable, NamedTuple, Sequence
+from collections.abc import Iterable, Sequence
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -91,7 +92,8 @@ class Genome:
             _info = None
         self.nodes: tuple[NodeGene, ...] = nodes_t
         self.modules: tuple[ModuleGene, ...] = tuple(
-            m if type(m) is ModuleGene else ModuleGene(int(m[0]), str(m[1]), tuple(map(int, m[2])), tuple(map(int, m[3])))
+            m if type(m) is ModuleGene
+            else ModuleGene(int(m[0]), str(m[1]), tuple(map(int, m[2])), tuple(map(int, m[3])))
             for m in modules
         )
         innov_a = np.asarray(innov, dtype=np.int64)
@@ -147,7 +149,7 @@ class Genome:
             m = max(m, max(mod.id for mod in self.modules))
         return m
 
-    def with_weights(self, weight: np.ndarray) -> "Genome":
+    def with_weights(self, weight: np.ndarray) -> Genome:
         """A genome identical to this one except for the weight array (shares everything else)."""
         return Genome(
             self.nodes, self.innov, self.src, self.dst, weight, self.modules, _info=self._info, _sorted=True
@@ -178,7 +180,8 @@ class Genome:
         if self.innov.size:
             if np.any(np.diff(self.innov) <= 0):
                 d = self.innov[np.flatnonzero(np.diff(self.innov) <= 0)[0] + 1]
-                raise ValueError(f"Genome: connection innovations not strictly increasing (duplicate or unsorted at {int(d)})")
+                raise ValueError("Genome: connection innovations not strictly increasing "
+                                 f"(duplicate or unsorted at {int(d)})")
             keys = self.pair_keys()
             uk, counts = np.unique(keys, return_counts=True)
             if np.any(counts > 1):
@@ -234,7 +237,7 @@ class Genome:
         }
 
     @classmethod
-    def from_dict(cls, data: dict[str, Any], validate: bool = True) -> "Genome":
+    def from_dict(cls, data: dict[str, Any], validate: bool = True) -> Genome:
         """Inverse of :meth:`to_dict`; validates by default (a bad file fails with the inconsistency named)."""
         try:
             conns = data["connections"]

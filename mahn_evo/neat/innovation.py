@@ -54,7 +54,7 @@ class InnovationTracker:
         }
 
     @classmethod
-    def from_dict(cls, data: dict[str, Any]) -> "InnovationTracker":
+    def from_dict(cls, data: dict[str, Any]) -> InnovationTracker:
         t = cls(int(data["next_id"]))
         for s, d, i in data.get("connections", []):
             t.connections[(int(s), int(d))] = int(i)

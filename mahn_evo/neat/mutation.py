@@ -69,7 +69,8 @@ def add_node(
     """Split a random connection a->b with a new hidden node n: add a->n (w=1) and n->b (old weight).
 
     The split connection is kept (a parallel path), as in the original, unless
-    ``settings.add_node_keeps_split_connection`` is False (then it is removed, as classic NEAT disables it).  Splitting the same connection twice in
+    ``settings.add_node_keeps_split_connection`` is False (then it is removed, as classic NEAT disables it).
+    Splitting the same connection twice in
     one generation reuses the node id, its activation and both connection ids.  Returns None if there is no
     connection to split.
     """

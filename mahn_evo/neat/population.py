@@ -23,8 +23,9 @@ the population size never changes, so a seed determines the whole run; :meth:`to
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass
-from typing import Any, Callable, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -107,7 +108,7 @@ class Population:
         n_inputs: int = 6,
         n_outputs: int = 2,
         output_activation: str = "bipolar_sigmoid",
-    ) -> "Population":
+    ) -> Population:
         """A fresh population with its own PCG64 generator seeded with ``seed`` (see :func:`initial_population`)."""
         rng = np.random.Generator(np.random.PCG64(seed))
         genomes, tracker = initial_population(kind, n_inputs, settings, rng, n_outputs, output_activation)
@@ -315,7 +316,7 @@ class Population:
         }
 
     @classmethod
-    def from_dict(cls, data: dict[str, Any]) -> "Population":
+    def from_dict(cls, data: dict[str, Any]) -> Population:
         """Restore a population saved by :meth:`to_dict` (e.g. after ``json.loads``)."""
         if data.get("format") != FORMAT:
             raise ValueError(f"Population.from_dict: not a {FORMAT} document (format={data.get('format')!r})")

@@ -20,8 +20,8 @@ Original rules (section 8) and the deliberate deviations:
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Sequence
 
 import numpy as np
 

@@ -7,7 +7,7 @@ cumulative sum, so runs are bit-reproducible and the draw count never depends on
 
 from __future__ import annotations
 
-from typing import Sequence
+from collections.abc import Sequence
 
 import numpy as np
 

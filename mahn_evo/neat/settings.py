@@ -10,8 +10,9 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any, Mapping
+from typing import Any
 
 #: Activation names a hidden node may be given by add-node (see :mod:`mahn_evo.cppn.activations`).
 HIDDEN_ACTIVATION_CHOICES = ("bipolar_sigmoid", "gaussian", "abs", "sine", "sigmoid", "error_sign", "identity")
@@ -153,7 +154,8 @@ class NeatSettings:
 
     def __post_init__(self) -> None:
         n = self.population_size
-        _check(isinstance(n, int) and not isinstance(n, bool) and n >= 2, "population_size", f"must be an int >= 2, got {n!r}")
+        _check(isinstance(n, int) and not isinstance(n, bool) and n >= 2, "population_size",
+               f"must be an int >= 2, got {n!r}")
         for name in (
             "elitism_proportion",
             "selection_proportion",
@@ -202,7 +204,8 @@ class NeatSettings:
         ):
             v = getattr(self, name)
             _check(_is_real(v) and math.isfinite(v) and v >= 0.0, name, f"must be a finite number >= 0, got {v!r}")
-        _check(_is_real(self.weight_limit) and 0 < self.weight_limit < math.inf, "weight_limit", "must be finite and > 0")
+        _check(_is_real(self.weight_limit) and 0 < self.weight_limit < math.inf, "weight_limit",
+               "must be finite and > 0")
         _check(
             self.new_connection_weight_range <= self.weight_limit,
             "new_connection_weight_range",
@@ -259,7 +262,8 @@ class NeatSettings:
         lo = self.species_count_min if self.species_count_min is not None else max(1, n // 10 - 2)
         hi = self.species_count_max if self.species_count_max is not None else max(1, n // 10)
         _check(isinstance(lo, int) and lo >= 1, "species_count_min", f"must be an int >= 1, got {lo!r}")
-        _check(isinstance(hi, int) and hi >= lo, "species_count_max", f"must be an int >= species_count_min, got {hi!r}")
+        _check(isinstance(hi, int) and hi >= lo, "species_count_max",
+               f"must be an int >= species_count_min, got {hi!r}")
         _check(hi <= n, "species_count_max", "must not exceed population_size")
         object.__setattr__(self, "_resolved", (lo, hi))
 
@@ -287,7 +291,7 @@ class NeatSettings:
         return out
 
     @classmethod
-    def from_mapping(cls, data: Mapping[str, Any]) -> "NeatSettings":
+    def from_mapping(cls, data: Mapping[str, Any]) -> NeatSettings:
         """Build settings from a mapping (e.g. parsed JSON); unknown keys are rejected by name."""
         known = {f.name: f for f in dataclasses.fields(cls) if f.init}
         unknown = sorted(set(data) - set(known))
@@ -300,7 +304,7 @@ class NeatSettings:
             kw[k] = v
         return cls(**kw)
 
-    def replace(self, **changes: Any) -> "NeatSettings":
+    def replace(self, **changes: Any) -> NeatSettings:
         """A copy with some fields changed (validated again)."""
         return self.from_mapping({**self.to_dict(), **changes})
 

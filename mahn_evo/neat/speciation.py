@@ -25,8 +25,9 @@ the union of the population's innovation ids, so one genome costs a few numpy ca
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -58,7 +59,8 @@ def compatibility_distance(a: Genome, b: Genome, settings: NeatSettings) -> floa
     wsum = float(np.sum(np.abs(a.weight[ia] - b.weight[ib]))) if m else 0.0
     if settings.weight_difference_mean and m:
         wsum /= m
-    return settings.disjoint_coefficient * disjoint + settings.excess_coefficient * excess + settings.weight_coefficient * wsum
+    return (settings.disjoint_coefficient * disjoint + settings.excess_coefficient * excess
+            + settings.weight_coefficient * wsum)
 
 
 @dataclass
@@ -84,12 +86,12 @@ class Species:
             d["culled"] = True
         return d
 
-    def successor(self, members: list[int]) -> "Species":
+    def successor(self, members: list[int]) -> Species:
         """The same species (identity and history) with new members."""
         return Species(self.id, members, self.created, self.best_fitness, self.last_improvement, self.culled)
 
     @classmethod
-    def from_dict(cls, d: dict[str, Any]) -> "Species":
+    def from_dict(cls, d: dict[str, Any]) -> Species:
         bf = d.get("best_fitness")
         return cls(
             int(d["id"]),
@@ -166,7 +168,8 @@ class RepresentativeIndex:
         j0 = int(np.searchsorted(self.cols, max_g, side="right"))
         excess_r = self._p[:k, j0:].sum(axis=1)
         excess = excess_g + excess_r
-        return s.disjoint_coefficient * (nonmatch - excess) + s.excess_coefficient * excess + s.weight_coefficient * wsum
+        return (s.disjoint_coefficient * (nonmatch - excess) + s.excess_coefficient * excess
+                + s.weight_coefficient * wsum)
 
 
 _MIX1 = np.uint64(0xBF58476D1CE4E5B9)
@@ -276,7 +279,8 @@ class ThresholdController:
             self.delta = 0.0
             return False
         if self.delta == 0.0:
-            self.delta = direction * max(settings.threshold_delta_min, settings.threshold_delta_proportion * self.threshold)
+            self.delta = direction * max(settings.threshold_delta_min,
+                                         settings.threshold_delta_proportion * self.threshold)
         elif (self.delta > 0) == (direction > 0):
             self.delta *= settings.threshold_delta_acceleration
         else:
@@ -290,5 +294,5 @@ class ThresholdController:
         return {"threshold": self.threshold, "delta": self.delta}
 
     @classmethod
-    def from_dict(cls, d: dict[str, Any]) -> "ThresholdController":
+    def from_dict(cls, d: dict[str, Any]) -> ThresholdController:
         return cls(float(d["threshold"]), float(d["delta"]))

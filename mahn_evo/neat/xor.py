@@ -7,7 +7,7 @@ network solves XOR when every output is on the correct side of 0.5.
 
 from __future__ import annotations
 
-from typing import Sequence
+from collections.abc import Sequence
 
 import numpy as np
 

@@ -108,7 +108,8 @@ def test_resume_continues_bit_identically(tmp_path, method):
     b = json.loads((tmp_path / "resumed" / "checkpoint.json").read_text())
     assert a["update"] == b["update"] == 3 and a["rng"] == b["rng"]
     timing = ("wall_time", "cpu_seconds", "robot_steps_per_second")
-    strip = lambda rows: [{k: v for k, v in r.items() if k not in timing} for r in rows]
+    def strip(rows):
+        return [{k: v for k, v in r.items() if k not in timing} for r in rows]
     assert strip(a["train_rows"]) == strip(b["train_rows"])
     wa = torch.load(tmp_path / "straight" / a["weights"], weights_only=True)
     wb = torch.load(tmp_path / "resumed" / b["weights"], weights_only=True)

@@ -5,8 +5,15 @@ random bit patterns and every special region (overflow, underflow, the slow path
 """
 import numpy as np
 
-from mahn_envs.core.expf import (MAY_UNDERFLOW, OVERFLOW, UNDERFLOW, expf_array, libm_expf_array,
-                                 libm_sigmoid_array, sigmoid_8_array)
+from mahn_envs.core.expf import (
+    MAY_UNDERFLOW,
+    OVERFLOW,
+    UNDERFLOW,
+    expf_array,
+    libm_expf_array,
+    libm_sigmoid_array,
+    sigmoid_8_array,
+)
 
 
 def _inputs() -> np.ndarray:

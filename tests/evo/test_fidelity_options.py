@@ -7,7 +7,6 @@ import json
 import numpy as np
 import pytest
 
-from tests.evo.helpers import random_genome
 from mahn_evo.config import TrainConfig
 from mahn_evo.cppn import compile_cppn, compile_genome, compile_relax
 from mahn_evo.cppn.relax import relax_steps
@@ -15,6 +14,7 @@ from mahn_evo.neat import Genome, NeatSettings, Population
 from mahn_evo.neat.initial import iros2011_seed_genome
 from mahn_evo.neat.speciation import Species, first_compatible, order_keys
 from mahn_evo.presets import PRESETS, apply_preset
+from tests.evo.helpers import random_genome
 
 
 def _queries(n_inputs: int, n: int = 64, seed: int = 0) -> np.ndarray:

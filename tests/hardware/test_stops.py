@@ -8,7 +8,8 @@ import time
 import warnings
 
 import pytest
-from hypothesis import given, settings, strategies as st
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from mahn_envs.hardware import RetryPolicy
 from mahn_envs.hardware import protocol as P
