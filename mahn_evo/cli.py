@@ -32,6 +32,9 @@ def _fidelity_and_robustness_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--aggregate", choices=AGGREGATES,
                    help="team fitness from its K episodes: mean (default), min or quantile (see --quantile)")
     p.add_argument("--quantile", type=float, help="the quantile of --aggregate quantile (default 0.25)")
+    p.add_argument("--noise-free-episode", action="store_true", default=None,
+                   help="with --noise: also score every team on one noise-free episode, aggregated with the noisy "
+                        "ones (a team must work with and without noise)")
 
 
 def _train_parser(sub) -> None:
@@ -182,9 +185,10 @@ def cmd_experiment(args) -> int:
     d = ExperimentPlan()
     chosen = {"init": args.init, "evaluate_modules": args.evaluate_modules, "cppn_activation": args.cppn_activation,
               "noise": args.noise, "episodes": args.episodes, "noise_draws": args.noise_draws,
-              "aggregate": args.aggregate, "quantile": args.quantile}
+              "aggregate": args.aggregate, "quantile": args.quantile,
+              "noise_free_episode": args.noise_free_episode}
     from_base = {k: getattr(base, k) for k in ("init", "evaluate_modules", "cppn_activation", "episodes",
-                                                "noise_draws", "aggregate", "quantile")
+                                                "noise_draws", "aggregate", "quantile", "noise_free_episode")
                  if args.preset or args.config}
     fields = {k: getattr(d, k) for k in chosen} | from_base | {k: v for k, v in chosen.items() if v is not None}
     plan = ExperimentPlan(modes=tuple(args.modes), runs=args.runs, seed=args.seed, generations=args.generations,
@@ -261,7 +265,7 @@ def cmd_train(args) -> int:
                      map=args.map, episodes=args.episodes, evaluate_modules=args.evaluate_modules,
                      stop_when_solved=args.stop_when_solved, after_solved=args.after_solved,
                      cppn_activation=args.cppn_activation, noise_draws=args.noise_draws, aggregate=args.aggregate,
-                     quantile=args.quantile)
+                     quantile=args.quantile, noise_free_episode=args.noise_free_episode)
     if args.resume and (args.out / "config.json").exists() and not args.config and not args.preset:
         from .files import read_versioned_json
 

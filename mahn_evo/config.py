@@ -50,6 +50,8 @@ class TrainConfig:
     noise_draws: str = "fixed"
     aggregate: str = "mean"
     quantile: float = 0.25
+    #: with noise: also score each team on one noise-free episode (see TeamEvaluator)
+    noise_free_episode: bool = False
     stop_when_solved: bool = False
     #: with stop_when_solved, generations still run after the first solution so the archive gathers the
     #: alternative solutions the generalisation test chooses among (0 = stop at once)
@@ -70,6 +72,8 @@ class TrainConfig:
         if isinstance(self.quantile, bool) or not isinstance(self.quantile, (int, float)) \
                 or not 0.0 <= self.quantile <= 1.0:
             raise ValueError(f"quantile must be a number in [0, 1], got {self.quantile!r}")
+        if not isinstance(self.noise_free_episode, bool):
+            raise TypeError(f"noise_free_episode must be true or false, got {self.noise_free_episode!r}")
         if self.cppn_activation == "relax" and not self.evaluate_modules:
             raise ValueError("cppn_activation 'relax' always evaluates the Multiply modules (as the original's "
                              "MultipleSteps does): it cannot be combined with evaluate_modules = false")

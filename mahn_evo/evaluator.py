@@ -64,7 +64,8 @@ class TeamEvaluator:
 
     def __init__(self, mode: str, map: str = "plus", params: Optional[TaskParams] = None, episodes: int = 1,
                  seed: int = 0, evaluate_modules: bool = False, cppn_activation: str = "recursive",
-                 noise_draws: str = "fixed", aggregate: str = "mean", quantile: float = 0.25) -> None:
+                 noise_draws: str = "fixed", aggregate: str = "mean", quantile: float = 0.25,
+                 noise_free_episode: bool = False) -> None:
         self.mode = mode
         self.world = load_map(map)
         self.params = params if params is not None else TaskParams()
@@ -85,7 +86,11 @@ class TeamEvaluator:
         self.noise_draws = noise_draws
         self.aggregate = aggregate
         self.quantile = quantile
+        #: also score every team on one noise-free episode (aggregated with the noisy ones): a team must work with
+        #: and without noise, instead of relying on noise to get out of a deadlock
+        self.noise_free_episode = bool(noise_free_episode)
         self._sims: dict[int, BatchSim] = {}
+        self._clean_sims: dict[int, BatchSim] = {}
 
     def decode(self, genomes: Sequence) -> TeamControllers:
         plans = [compile_genome(g, self.cppn_activation, self.evaluate_modules) for g in genomes]
@@ -95,6 +100,14 @@ class TeamEvaluator:
         if n not in self._sims:
             self._sims = {n: BatchSim(self.world, n, self.params)}
         return self._sims[n]
+
+    def _clean_sim(self, n: int) -> BatchSim:
+        if n not in self._clean_sims:
+            noise_free = {k: 0.0 for k in ("sensor_noise", "effector_noise", "heading_noise", "start_jitter_xy",
+                                           "start_jitter_heading")}
+            params = TaskParams.from_mapping({**self.params.to_dict(), **noise_free})
+            self._clean_sims = {n: BatchSim(self.world, n, params)}
+        return self._clean_sims[n]
 
     def episode_keys(self, generation: int = 0) -> list[int]:
         """The keys of the episodes every team of `generation` is scored on."""
@@ -114,11 +127,15 @@ class TeamEvaluator:
         n = ctrl.w_ih.shape[0]
         sim = self._sim(n)
         keys = self.episode_keys(generation)
-        fits = np.zeros((len(keys), n))
+        fits = np.zeros((len(keys) + self.noise_free_episode, n))
         solved = np.zeros(n)
         for e, key in enumerate(keys):
             res = sim.run_controllers(ctrl, seed=self.seed, episode_keys=np.full(n, key))
             fits[e] = res.fitness
+            solved += res.solved
+        if self.noise_free_episode:
+            res = self._clean_sim(n).run_controllers(ctrl, seed=self.seed, episode_keys=np.zeros(n, dtype=np.int64))
+            fits[-1] = res.fitness
             solved += res.solved
         if self.aggregate == "min":
             fit = fits.min(axis=0)
@@ -126,10 +143,10 @@ class TeamEvaluator:
             fit = np.quantile(fits, self.quantile, axis=0)
         else:  # the mean, summed in episode order (as before: bit-identical for old runs)
             fit = np.zeros(n)
-            for e in range(len(keys)):
+            for e in range(fits.shape[0]):
                 fit += fits[e]
-            fit = fit / len(keys)
-        return fit[index], solved[index] / len(keys)
+            fit = fit / fits.shape[0]
+        return fit[index], solved[index] / fits.shape[0]
 
     def evaluate(self, genomes: Sequence, generation: int = 0) -> Evaluation:
         controllers = self.decode(genomes)

@@ -81,7 +81,8 @@ class Trainer:
         self.evaluator = TeamEvaluator(config.mode, config.map, config.task, config.episodes, seed=config.seed,
                                        evaluate_modules=config.evaluate_modules,
                                        cppn_activation=config.cppn_activation, noise_draws=config.noise_draws,
-                                       aggregate=config.aggregate, quantile=config.quantile)
+                                       aggregate=config.aggregate, quantile=config.quantile,
+                                       noise_free_episode=config.noise_free_episode)
         self.rows: list[list] = []
         self.best_fitness = -np.inf
         self.first_solved: int | None = None

@@ -38,6 +38,7 @@ class ExperimentPlan:
     noise_draws: str = "fixed"
     aggregate: str = "mean"
     quantile: float = 0.25
+    noise_free_episode: bool = False
     map: str = "plus"
     after_solved: int = 50  # generations kept after the first solution, for the generalisation test
     top: int = 5  # most general solutions (from distinct runs) per mode that get the transfer tests
@@ -80,7 +81,8 @@ class ExperimentPlan:
         base = TrainConfig(mode=mode, generations=self.generations, seed=seed, init=self.init, map=self.map,
                            evaluate_modules=self.evaluate_modules, cppn_activation=self.cppn_activation,
                            episodes=self.episodes, noise_draws=self.noise_draws, aggregate=self.aggregate,
-                           quantile=self.quantile, stop_when_solved=True,
+                           quantile=self.quantile, noise_free_episode=self.noise_free_episode,
+                           stop_when_solved=True,
                            after_solved=self.after_solved).with_noise(self.noise)
         base = base.with_overrides(pop=self.population)
         if self.neat:

@@ -68,3 +68,18 @@ def test_noise_preset_is_saved_in_the_run_config(tmp_path):
     assert cfg.task.sensor_noise == 5.0 and cfg.task.effector_noise == 10.0
     assert TrainConfig.from_mapping(cfg.to_dict()) == cfg
     assert cfg.with_noise("none").task == TrainConfig().task
+
+
+def test_a_noise_free_episode_joins_the_noisy_ones():
+    g = _genomes()
+    kw = dict(params=NOISY, episodes=2, noise_draws="per_generation", evaluate_modules=True)
+    both = TeamEvaluator("situational", noise_free_episode=True, **kw)
+    noisy = TeamEvaluator("situational", **kw).evaluate(g, 3)
+    clean = TeamEvaluator("situational", evaluate_modules=True).evaluate(g, 3)
+    np.testing.assert_allclose(both.evaluate(g, 3).fitness, (2 * noisy.fitness + clean.fitness) / 3, rtol=1e-12)
+    low = TeamEvaluator("situational", noise_free_episode=True, aggregate="min", **kw).evaluate(g, 3).fitness
+    assert np.all(low <= clean.fitness) and np.all(low <= noisy.fitness + 1e-9)
+    cfg = TrainConfig(noise_free_episode=True)
+    assert TrainConfig.from_mapping(cfg.to_dict()).noise_free_episode is True
+    with pytest.raises(TypeError, match="noise_free_episode"):
+        TrainConfig(noise_free_episode="yes")
