@@ -125,9 +125,7 @@ class TrainConfig:
 
         if preset not in NOISE_PRESETS:
             raise ValueError(f"unknown noise preset {preset!r}; known: {sorted(NOISE_PRESETS)}")
-        noise_free = {k: 0.0 for k in ("sensor_noise", "effector_noise", "heading_noise", "start_jitter_xy",
-                                        "start_jitter_heading")}
-        task = {**self.task.to_dict(), **noise_free, **NOISE_PRESETS[preset]}
+        task = {**self.task.without_noise().to_dict(), **NOISE_PRESETS[preset]}
         return replace(self, task=TaskParams.from_mapping(task))
 
     def with_overrides(self, **changes: Any) -> TrainConfig:

@@ -103,10 +103,7 @@ class TeamEvaluator:
 
     def _clean_sim(self, n: int) -> BatchSim:
         if n not in self._clean_sims:
-            noise_free = {k: 0.0 for k in ("sensor_noise", "effector_noise", "heading_noise", "start_jitter_xy",
-                                           "start_jitter_heading")}
-            params = TaskParams.from_mapping({**self.params.to_dict(), **noise_free})
-            self._clean_sims = {n: BatchSim(self.world, n, params)}
+            self._clean_sims = {n: BatchSim(self.world, n, self.params.without_noise())}
         return self._clean_sims[n]
 
     def episode_keys(self, generation: int = 0) -> list[int]:

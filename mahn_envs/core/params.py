@@ -2,7 +2,7 @@
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, fields
+from dataclasses import asdict, dataclass, fields, replace
 
 import numpy as np
 
@@ -14,6 +14,8 @@ from . import task as T
 ORIGINAL_MAX_TICKS = 1364
 ORIGINAL_SIGNAL_TICK = 690
 ORIGINAL_SAMPLE_PERIOD = 30
+#: The noise levels of TaskParams (all 0 in the original task).
+NOISE_FIELDS = ("sensor_noise", "effector_noise", "heading_noise", "start_jitter_xy", "start_jitter_heading")
 
 
 def check_flag(value: object, field: str) -> bool:
@@ -65,6 +67,10 @@ class TaskParams:
 
     def to_dict(self) -> dict:
         return asdict(self)
+
+    def without_noise(self) -> "TaskParams":
+        """The same task with every noise level (sensor, effector, heading, start jitter) at 0."""
+        return replace(self, **{name: 0.0 for name in NOISE_FIELDS})
 
     @classmethod
     def from_mapping(cls, data: dict) -> "TaskParams":
