@@ -2,6 +2,7 @@
 import numpy as np
 import pytest
 
+from mahn_evo import batch_cppn
 from mahn_evo.batch_cppn import evaluate_plans
 from mahn_evo.cppn import CppnPlan, compile_cppn
 from mahn_evo.neat.population import Population
@@ -21,7 +22,8 @@ def _evolved_genomes(kind: str, n_inputs: int) -> list:
 
 @pytest.mark.parametrize("mode,kind,modules", [("situational", "iros2011", True), ("situational", "iros2011", False),
                                                ("standard", "minimal", False)])
-def test_population_evaluation_is_bit_identical_to_plan_by_plan(mode, kind, modules):
+def test_population_evaluation_is_bit_identical_to_plan_by_plan(mode, kind, modules, monkeypatch):
+    monkeypatch.setattr(batch_cppn, "BLOCK", 16)  # several blocks, the last one partial
     layout = query_layout(mode)
     plans = [compile_cppn(g, evaluate_modules=modules) for g in _evolved_genomes(kind, layout.n_cppn_inputs)]
     assert len({p.op_act.size for p in plans}) > 2  # genomes of different sizes share the waves
