@@ -143,7 +143,8 @@ def main() -> None:
             warm_up(hw)
         for scenario in args.scenarios:
             print(f"{scenario}: seconds, median of {args.repeats} (max); {args.timeout:g} s x {args.attempts} attempts")
-            results = {name: [run_once(hw, scenario, args.timeout, args.attempts) for _ in range(args.repeats)] for name, hw in versions.items()}
+            results = {name: [run_once(hw, scenario, args.timeout, args.attempts) for _ in range(args.repeats)]
+                       for name, hw in versions.items()}
             for name, runs in results.items():
                 keys = [k for k in runs[0] if k != "false"]
                 cells = []

@@ -13,7 +13,7 @@ evaluated one by one with their own `evaluate`.
 from __future__ import annotations
 
 import dataclasses
-from typing import Sequence
+from collections.abc import Sequence
 
 import numpy as np
 from numba import njit

@@ -5,8 +5,8 @@ with the controllers inside, so a generation of 500 teams costs one kernel call.
 """
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Optional, Sequence
 
 import numpy as np
 
@@ -62,7 +62,7 @@ class TeamEvaluator:
     "quantile" scores a team by its bad episodes rather than its mean.
     """
 
-    def __init__(self, mode: str, map: str = "plus", params: Optional[TaskParams] = None, episodes: int = 1,
+    def __init__(self, mode: str, map: str = "plus", params: TaskParams | None = None, episodes: int = 1,
                  seed: int = 0, evaluate_modules: bool = False, cppn_activation: str = "recursive",
                  noise_draws: str = "fixed", aggregate: str = "mean", quantile: float = 0.25,
                  noise_free_episode: bool = False) -> None:

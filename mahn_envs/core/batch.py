@@ -5,8 +5,8 @@ evaluator runs a generation of teams through `run_controllers`, and the RL vecto
 """
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
-from typing import Optional, Sequence
 
 import numpy as np
 
@@ -31,7 +31,7 @@ class RunResult:
     fitness: np.ndarray
     solved: np.ndarray
     collisions: np.ndarray
-    trajectories: Optional[np.ndarray] = None
+    trajectories: np.ndarray | None = None
 
 
 def validate_poses(world: World, poses: np.ndarray, radius: float, n_robots: int) -> np.ndarray:
@@ -73,7 +73,7 @@ def check_start_jitter(world: World, params: TaskParams, radius: float) -> None:
 class BatchSim:
     """B episodes of the task in lock-step.  All randomness flows from the seed given to `reset`."""
 
-    def __init__(self, world: "World | str" = "plus", n_episodes: int = 1, params: Optional[TaskParams] = None,
+    def __init__(self, world: World | str = "plus", n_episodes: int = 1, params: TaskParams | None = None,
                  model: KheperaModel = DEFAULT_MODEL) -> None:
         self.world = load_map(world)
         self.params = params if params is not None else TaskParams()
@@ -131,8 +131,8 @@ class BatchSim:
                 base[e, :, 2] += rng.uniform(-jh, jh, size=self.n_robots)
         return base
 
-    def reset(self, seed: int = 0, poses: Optional[np.ndarray] = None,
-              episode_keys: Optional[Sequence[int]] = None) -> np.ndarray:
+    def reset(self, seed: int = 0, poses: np.ndarray | None = None,
+              episode_keys: Sequence[int] | None = None) -> np.ndarray:
         """Place the robots and sense; returns observations (B, R, 7).
 
         `episode_keys` name the episodes for the random streams (default 0..B-1): the same key and seed give
@@ -219,7 +219,7 @@ class BatchSim:
         return self.prev_fit.copy(), self.solved.copy()
 
     def run_random(self, seed: int = 0, p_left: float = 1 / 3, p_forward: float = 1 / 3,
-                   episode_keys: Optional[Sequence[int]] = None) -> RunResult:
+                   episode_keys: Sequence[int] | None = None) -> RunResult:
         """Whole episodes of a random team in the compiled loop (random-policy reference, benchmark)."""
         if not (0 <= p_left <= 1 and 0 <= p_forward <= 1 and p_left + p_forward <= 1):
             raise ValueError("p_left and p_forward must be probabilities with p_left + p_forward <= 1")
@@ -234,8 +234,8 @@ class BatchSim:
         return RunResult(fitness=fitness, solved=solved, collisions=self.racc[:, :, T.R_COLL].astype(np.int64))
 
     # ------------------------------------------------------------------ controllers in the loop
-    def run_controllers(self, controllers: TeamControllers, seed: int = 0, poses: Optional[np.ndarray] = None,
-                        episode_keys: Optional[Sequence[int]] = None, record: bool = False) -> RunResult:
+    def run_controllers(self, controllers: TeamControllers, seed: int = 0, poses: np.ndarray | None = None,
+                        episode_keys: Sequence[int] | None = None, record: bool = False) -> RunResult:
         """Run whole episodes with evolved controllers inside the compiled loop (both cores).
 
         A single team is run in every episode; a batch of B teams runs team b in episode b.

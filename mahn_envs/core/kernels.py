@@ -8,8 +8,23 @@ from numba import njit, prange
 
 from .controller import remembered_action
 from .rng import CH_ACTION, uniform
-from .task import (E_TICK, F_SIGNAL, H, P_MAXT, P_SEE, X, Y, cast_robot_rays, decide_robot, drive_robot, encode_episode,
-                   move_robot, score_tick, sense_episode, team_fitness)
+from .task import (
+    E_TICK,
+    F_SIGNAL,
+    P_MAXT,
+    P_SEE,
+    H,
+    X,
+    Y,
+    cast_robot_rays,
+    decide_robot,
+    drive_robot,
+    encode_episode,
+    move_robot,
+    score_tick,
+    sense_episode,
+    team_fitness,
+)
 
 
 @njit(cache=True, error_model="numpy")

@@ -68,12 +68,12 @@ class TaskParams:
     def to_dict(self) -> dict:
         return asdict(self)
 
-    def without_noise(self) -> "TaskParams":
+    def without_noise(self) -> TaskParams:
         """The same task with every noise level (sensor, effector, heading, start jitter) at 0."""
         return replace(self, **{name: 0.0 for name in NOISE_FIELDS})
 
     @classmethod
-    def from_mapping(cls, data: dict) -> "TaskParams":
+    def from_mapping(cls, data: dict) -> TaskParams:
         names = {f.name for f in fields(cls)}
         unknown = set(data) - names
         if unknown:
