@@ -21,9 +21,11 @@ episode), told apart only by the one-hot agent index in the observation.  Why th
 """
 from __future__ import annotations
 
-from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:  # pragma: no cover - SB3 imports torch; the classes are imported lazily below
+    from stable_baselines3.common.base_class import BaseAlgorithm
 
 ALGO_NAMES = ("ppo", "recurrent_ppo", "dqn")
 
@@ -37,7 +39,7 @@ class AlgoSpec:
     hyperparams: dict[str, Any] = field(default_factory=dict)
     recurrent: bool = False
 
-    def model_class(self) -> Callable[..., Any]:
+    def model_class(self) -> type[BaseAlgorithm]:
         if self.name == "ppo":
             from stable_baselines3 import PPO
 

@@ -154,9 +154,9 @@ def main(argv: Sequence[str] | None = None) -> int:
             from .lean_config import LeanConfig
             from .lean_ppo import train as lean_train
 
-            cfg = LeanConfig(method=a.method, steps=a.steps, seed=a.seed, **_lean_task(a)).with_overrides(
+            lean_cfg = LeanConfig(method=a.method, steps=a.steps, seed=a.seed, **_lean_task(a)).with_overrides(
                 a.hyperparams)
-            summary = lean_train(cfg, a.out, resume=a.resume,
+            summary = lean_train(lean_cfg, a.out, resume=a.resume,
                                  on_update=lambda r: print(f"update {r['update']}  {r['steps']} robot-steps  "
                                                            f"fitness {r['fitness_mean']:.3f} (max "
                                                            f"{r['fitness_max']:.3f})  "
@@ -166,10 +166,10 @@ def main(argv: Sequence[str] | None = None) -> int:
             from .direct_cma import CMAConfig
             from .direct_cma import train as cma_train
 
-            cfg = CMAConfig(mode=a.mode, generations=a.generations, popsize=a.popsize, sigma0=a.sigma0,
-                            seed=a.seed, map=a.map, episodes=a.episodes, max_cycles=a.max_cycles,
-                            signal_tick=a.signal_tick)
-            summary = cma_train(cfg, a.out, resume=a.resume, checkpoint_every=a.checkpoint_every,
+            cma_cfg = CMAConfig(mode=a.mode, generations=a.generations, popsize=a.popsize, sigma0=a.sigma0,
+                                seed=a.seed, map=a.map, episodes=a.episodes, max_cycles=a.max_cycles,
+                                signal_tick=a.signal_tick)
+            summary = cma_train(cma_cfg, a.out, resume=a.resume, checkpoint_every=a.checkpoint_every,
                                 on_generation=lambda r: print(f"generation {r[0]}  best {r[2]:.3f}  best ever "
                                                               f"{r[4]:.3f}  sigma {r[7]:.3f}", flush=True))
             print(json.dumps(summary, indent=2))

@@ -14,7 +14,7 @@ from typing import Any
 from .algos import get_algo, load_model
 from .io import write_json
 from .policy import SB3TeamPolicy
-from .protocols import run_protocol
+from .protocols import TeamPolicy, run_protocol
 from .train import EVAL_MAPS, load_config
 
 PROTOCOL_NAMES = ("training", "sequential")
@@ -48,19 +48,22 @@ def evaluate_run(run_dir: str | Path, maps: Sequence[str] = EVAL_MAPS,
         from .lean_nets import LeanTeamPolicy
         from .lean_ppo import load_actor
 
-        cfg, actor = load_actor(run_dir, which)
-        torch.set_num_threads(max(1, cfg.torch_threads))
-        policy = LeanTeamPolicy(actor, cfg.method, cfg.frame_stack, deterministic=not stochastic, seed=seed)
-        results: dict[str, Any] = {"run": str(run_dir), "algo": cfg.method, "seed": cfg.seed,
+        lean_cfg, actor = load_actor(run_dir, which)
+        torch.set_num_threads(max(1, lean_cfg.torch_threads))
+        policy: TeamPolicy = LeanTeamPolicy(actor, lean_cfg.method, lean_cfg.frame_stack,
+                                            deterministic=not stochastic, seed=seed)
+        task_params = lean_cfg.task_params
+        results: dict[str, Any] = {"run": str(run_dir), "algo": lean_cfg.method, "seed": lean_cfg.seed,
                                    "model": "best_actor.pt" if which == "best" else "last checkpoint",
                                    "deterministic": not stochastic, "episodes": episodes, "eval_seed": seed,
-                                   "recurrent": cfg.recurrent, "protocols": {}}
+                                   "recurrent": lean_cfg.recurrent, "protocols": {}}
     else:
         cfg = load_config(run_dir)
         torch.set_num_threads(max(1, cfg.torch_threads))
         path = model_path(run_dir, which)
         model = load_model(cfg.algo, str(path))
         policy = SB3TeamPolicy(model, deterministic=not stochastic)
+        task_params = cfg.task_params
         results = {"run": str(run_dir), "algo": cfg.algo, "seed": cfg.seed, "model": path.name,
                    "deterministic": not stochastic, "episodes": episodes, "eval_seed": seed,
                    "recurrent": get_algo(cfg.algo).recurrent, "protocols": {}}
@@ -68,7 +71,7 @@ def evaluate_run(run_dir: str | Path, maps: Sequence[str] = EVAL_MAPS,
         per_map: dict[str, Any] = {}
         for m in maps:
             try:
-                per_map[m] = run_protocol(proto, policy, m, cfg.task_params, episodes=episodes, seed=seed).summary()
+                per_map[m] = run_protocol(proto, policy, m, task_params, episodes=episodes, seed=seed).summary()
             except NotImplementedError as exc:
                 per_map = {"error": str(exc)}
                 break

@@ -65,7 +65,7 @@ def actor_inputs(n_robots: int) -> int:
     return N_SENSOR_INPUTS + n_robots
 
 
-def build_networks(cfg: LeanConfig, n_robots: int, global_size: int) -> tuple[nn.Module, nn.Module]:
+def build_networks(cfg: LeanConfig, n_robots: int, global_size: int) -> tuple[GRUNet | MLP, GRUNet | MLP]:
     """(actor, critic) of a method; weights drawn from torch's global generator (seeded by the caller)."""
     n_obs = actor_inputs(n_robots)
     if cfg.method == "ppo_ff":
@@ -126,7 +126,8 @@ class LeanTeamPolicy:
         self._n = int(n_episodes)
         n = self._n * self.n_robots
         if self.recurrent:
-            self._h = self.actor.initial_state(n)
+            # any nn.Module with initial_state (GRUNet); torch types module attributes as Tensor | Module
+            self._h = self.actor.initial_state(n)  # type: ignore[operator]
         else:
             self._stack = FrameStack(n, actor_inputs(self.n_robots), self.k)
 
@@ -140,6 +141,7 @@ class LeanTeamPolicy:
                 logits, self._h = self.actor(torch.from_numpy(x)[None], self._h)
                 logits = logits[0]
             else:
+                assert self._stack is not None  # reset() made it: a feed-forward policy has no hidden state
                 logits = self.actor(torch.from_numpy(self._stack.push(x)))
         if self.deterministic:
             a = logits.argmax(dim=1).numpy()
@@ -158,6 +160,7 @@ class LeanTeamPolicy:
 
 def sample_actions(probs: np.ndarray, rng: np.random.Generator) -> np.ndarray:
     """One categorical draw per row of `probs` (N, A) from a numpy generator (its state is checkpointed)."""
-    u = rng.random(probs.shape[0])
+    n_rows: int = probs.shape[0]  # typed, so numpy's stubs pick the array overload of random()
+    u = rng.random(n_rows)
     a = (u[:, None] > np.cumsum(probs, axis=1)).sum(axis=1)
     return np.minimum(a, probs.shape[1] - 1)

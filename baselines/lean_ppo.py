@@ -37,7 +37,7 @@ from mahn_evo.files import atomic_write_json, read_versioned_json, versioned
 
 from .io import write_csv
 from .lean_config import STOPPING_RULES, LeanConfig
-from .lean_nets import LeanTeamPolicy, build_networks, sample_actions, stack_frames
+from .lean_nets import GRUNet, LeanTeamPolicy, build_networks, sample_actions, stack_frames
 from .protocols import run_protocol
 from .vec_env import PatrolReturnVecEnv
 
@@ -214,8 +214,12 @@ class LeanPPO:
         obs = self.env.reset_at(cfg.seed, self.update)
         recurrent, mappo = cfg.recurrent, cfg.method == "mappo_gru"
         if recurrent:
+            assert isinstance(self.actor, GRUNet)  # build_networks: recurrent methods have a GRU actor
             h_a = self.actor.initial_state(self.N)
-            h_c = self.critic.initial_state(self.N) if not mappo else None
+            h_c: torch.Tensor | None = None
+            if not mappo:
+                assert isinstance(self.critic, GRUNet)  # ... and, but for MAPPO's centralised MLP, a GRU critic
+                h_c = self.critic.initial_state(self.N)
         else:
             stack = np.zeros((self.N, obs.shape[1] * cfg.frame_stack), dtype=np.float32)
             d = obs.shape[1]
@@ -235,6 +239,7 @@ class LeanPPO:
                     logits, h_a = self.actor(x[None], h_a)
                     logits = logits[0]
                     if mappo:
+                        assert buf.gstate is not None  # a MAPPO rollout holds the global states
                         g = self.env.global_state(buf.gstate[t])
                         buf.values[t] = self.critic(torch.from_numpy(g))[:, 0].numpy()
                     else:
@@ -268,9 +273,10 @@ class LeanPPO:
         pad = n_chunks * L - self.T
         if pad:
             a = np.concatenate([a, np.zeros((pad,) + a.shape[1:], dtype=a.dtype)])
-        a = a.reshape((n_chunks, L) + a.shape[1:])
-        a = np.moveaxis(a, 1, 0).reshape((L, n_chunks * a.shape[2]) + a.shape[3:])
-        return torch.from_numpy(np.ascontiguousarray(a))
+        # typed: numpy's stubs give a reshape to a tuple of unknown length the shape tuple[()]
+        chunks: np.ndarray = a.reshape((n_chunks, L) + a.shape[1:])
+        chunks = np.moveaxis(chunks, 1, 0).reshape((L, n_chunks * chunks.shape[2]) + chunks.shape[3:])
+        return torch.from_numpy(np.ascontiguousarray(chunks))
 
     def learn(self, buf: Rollout) -> dict[str, float]:
         cfg, T, N, B = self.cfg, self.T, self.N, self.cfg.n_episodes
@@ -294,6 +300,7 @@ class LeanPPO:
             h_a = torch.from_numpy(buf.h_actor.reshape(1, -1, cfg.hidden))
             n_seq = obs.shape[1]
             if mappo:
+                assert buf.gstate is not None  # a MAPPO rollout holds the global states
                 g = torch.from_numpy(buf.gstate.reshape(T * B, -1))
                 g_ret = torch.from_numpy(ret_team.reshape(-1))
             else:
@@ -322,6 +329,7 @@ class LeanPPO:
                     m = mask[:, idx]
                     a, lp_old, ad = acts[:, idx], old_logp[:, idx], advs[:, idx]
                     if mappo:
+                        assert g_perm is not None  # drawn above for recurrent MAPPO
                         gi = torch.from_numpy(g_perm[i::cfg.minibatches])
                         v, v_target, vm = self.critic(g[gi])[:, 0], g_ret[gi], None
                     else:

@@ -11,7 +11,7 @@ import numpy as np
 from scipy import stats
 
 
-def iqm(values: Sequence[float]) -> float:
+def iqm(values: Sequence[float] | np.ndarray) -> float:
     """Interquartile mean: the mean of the middle 50% (scipy's trim_mean with 25% cut at each end)."""
     v = np.asarray(values, dtype=np.float64)
     if v.size == 0:
@@ -19,7 +19,7 @@ def iqm(values: Sequence[float]) -> float:
     return float(stats.trim_mean(v, 0.25))
 
 
-def iqm_ci(values: Sequence[float], confidence: float = 0.95, resamples: int = 2000,
+def iqm_ci(values: Sequence[float] | np.ndarray, confidence: float = 0.95, resamples: int = 2000,
            seed: int = 0) -> tuple[float, float]:
     """Percentile bootstrap interval of the IQM over runs (runs resampled with replacement)."""
     v = np.asarray(values, dtype=np.float64)

@@ -161,7 +161,8 @@ def train(cfg: TrainConfig, out: str | Path, progress: bool = False) -> dict[str
     write_json(out / "config.json", cfg.to_dict())
     spec = get_algo(cfg.algo)
     env = make_env(cfg)
-    model = spec.model_class()(spec.policy, env, seed=cfg.seed, device="cpu", verbose=0,
+    # PatrolReturnVecEnv implements SB3's VecEnv interface without subclassing it (vec_env stays torch-free)
+    model = spec.model_class()(spec.policy, env, seed=cfg.seed, device="cpu", verbose=0,  # type: ignore[arg-type]
                                tensorboard_log=str(out / "tb") if cfg.tensorboard else None,
                                **resolved_hyperparams(cfg.algo, cfg.hyperparams))
     callback = _make_callback(cfg, out, env.n_robots)

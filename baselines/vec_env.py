@@ -93,7 +93,7 @@ class PatrolReturnVecEnv:
         self.observation_space = spaces.Box(0.0, 1.0, (N_SENSOR_INPUTS + R,), np.float32)
         self.action_space = spaces.Discrete(3)
         self.render_mode = None
-        self.metadata = {"render_modes": []}
+        self.metadata: dict[str, Any] = {"render_modes": []}
         self.reset_infos: list[dict[str, Any]] = [{} for _ in range(self.num_envs)]
         self._seeds: list[int | None] = [None] * self.num_envs
         self._options: list[dict[str, Any]] = [{} for _ in range(self.num_envs)]
@@ -126,7 +126,9 @@ class PatrolReturnVecEnv:
         self._options = deepcopy([options] * self.num_envs) if isinstance(options, dict) else deepcopy(options)
 
     def _start_batch(self) -> np.ndarray:
-        keys = self._episode * self.n_episodes + np.arange(self.n_episodes)
+        first = self._episode * self.n_episodes
+        keys = range(first, first + self.n_episodes)  # episode n of slot-batch b: key n * n_episodes + b
+        assert self._seed is not None  # reset() / reset_at() set it before any batch starts
         core_obs = self.sim.reset(seed=self._seed, episode_keys=keys)
         self._episode += 1
         self._t_start = time.perf_counter()

@@ -239,18 +239,18 @@ def _progress_printer(quiet: bool, total: int):
                         TimeElapsedColumn())
         task = prog.add_task("", total=total)
 
-        def on_gen(p):
+        def update_bar(p):
             prog.update(task, completed=p.generation + 1, description=(
                 f"best {p.best_fitness:8.3f}  mean {p.mean_fitness:7.3f}  species {p.n_species:3d}  "
                 f"solved {'yes' if p.first_solved is not None else 'no '}  {p.seconds:.2f} s/gen"))
-        return prog, on_gen
+        return prog, update_bar
 
-    def on_gen(p):
+    def print_line(p):
         if p.generation % 10 == 0 or p.generation + 1 == p.generations or p.solved:
             print(f"gen {p.generation:5d}  best {p.best_fitness:9.4f}  mean {p.mean_fitness:8.4f}  "
                   f"species {p.n_species:3d}  solved {'yes' if p.first_solved is not None else 'no'}  "
                   f"{p.seconds:.2f} s/gen", flush=True)
-    return None, on_gen
+    return None, print_line
 
 
 def cmd_train(args) -> int:
@@ -310,6 +310,7 @@ def _trajectory_png(champion_path: Path, map_name: str, out_png: Path) -> dict:
     champ = Champion.load(champion_path)
     sim = BatchSim(map_name, 1)
     res = sim.run_controllers(champ.controllers, record=True)
+    assert res.trajectories is not None  # record=True records them
     trajectory_plot(sim.world, res.trajectories[0], out_png,
                     title=f"{champ.mode} champion (gen {champ.generation}): fitness {res.fitness[0]:.2f}, "
                           f"solved {bool(res.solved[0])}", signal_tick=sim.params.signal_tick)
@@ -338,11 +339,12 @@ def cmd_eval(args) -> int:
             frames: list | None = [] if args.video else None
             ep = sequential_episode(policy, map=args.map, params=params, seed=args.seed, record=True,
                                     frames=frames)
-            if args.video:
+            if frames is not None:  # exactly when args.video
                 save_gif(frames, args.video, fps=15)
             if args.plot:
                 from mahn_envs.maps import load_map
 
+                assert ep.trajectory is not None  # record=True records it
                 trajectory_plot(load_map(args.map), ep.trajectory, args.plot,
                                 title=f"sequential protocol on {args.map}: "
                                       f"{'success' if ep.success else 'fail'} ({ep.stages_completed}/9 stages)")

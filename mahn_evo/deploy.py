@@ -118,6 +118,7 @@ def deploy(champion_path: str | Path, ports: Sequence[str] | None = None, *,
             ports = emulator.ports
             kwargs["placement"] = _emulator_placement(emulator, kwargs["placement"])
             kwargs.setdefault("pose_source", emulator.poses)
+        assert ports is not None  # the emulator's, or checked non-empty above
         env = KheperaHardwareEnv(list(ports), **kwargs)
         try:
             with env:
@@ -160,9 +161,17 @@ def _emulator_placement(emulator: Any, placement: Any) -> Callable[[dict], None]
     if placement == "prompt":
         from mahn_envs.hardware import prompt_placement
 
-        return lambda targets: (prompt_placement(targets), emulator.place(targets))[-1]
+        def prompt_then_place(targets: dict) -> None:
+            prompt_placement(targets)
+            emulator.place(targets)
+
+        return prompt_then_place
     if callable(placement):
-        return lambda targets: (placement(targets), emulator.place(targets))[-1]
+        def call_then_place(targets: dict) -> None:
+            placement(targets)
+            emulator.place(targets)
+
+        return call_then_place
     return emulator.place
 
 

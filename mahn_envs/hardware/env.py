@@ -124,7 +124,7 @@ class KheperaHardwareEnv(ParallelEnv):
       retry: a RetryPolicy (timeouts, attempts, reconnects); baudrate, eol: line settings.
     """
 
-    metadata = {"name": "khepera_hardware_v0", "render_modes": ["human", "rgb_array"], "render_fps": 30,
+    metadata: dict[str, Any] = {"name": "khepera_hardware_v0", "render_modes": ["human", "rgb_array"], "render_fps": 30,
                 "is_parallelizable": True}
 
     def __init__(self, ports: Sequence[str], *, map: str | World = "plus",
@@ -282,6 +282,7 @@ class KheperaHardwareEnv(ParallelEnv):
             agent = self.possible_agents[k]
             try:
                 ver = link.transact(P.version())
+                assert isinstance(ver, P.Version)  # parse_reply answers B with a Version or raises
                 self.firmware[agent] = (ver.version, ver.revision)
             except ProtocolError as exc:
                 if exc.reply != P.ERROR_MARK:
@@ -329,6 +330,7 @@ class KheperaHardwareEnv(ParallelEnv):
     def _read_sensors(self) -> None:
         replies = self._broadcast([P.read_proximity()] * len(self._links))
         for k, rep in enumerate(replies):
+            assert isinstance(rep, P.SensorReading)  # parse_reply answers N with a SensorReading or raises
             self._raw[k] = rep.values
         front = self._raw[:, list(P.FRONT_SENSORS)]
         q = np.asarray(self.calibration.to_unit(front), dtype=np.float64)
@@ -434,8 +436,8 @@ class KheperaHardwareEnv(ParallelEnv):
         acts = coerce_actions(actions, self.agents, self.possible_agents)
         # 1. actions -> reflex -> wheel commands, to every robot
         motions, commands = [], []
-        for k, a in enumerate(acts):
-            m = reflex_motion(a, self._q[k], bool(self._moving[k]), self.sensor_floor, self.reflex)
+        for k, action in enumerate(acts):
+            m = reflex_motion(action, self._q[k], bool(self._moving[k]), self.sensor_floor, self.reflex)
             self._moving[k] = m.moving
             motions.append(m)
             commands.append(P.set_speed(*self.drive.units(m, self.speed_units[k])))
@@ -585,7 +587,7 @@ class KheperaHardwareEnv(ParallelEnv):
         with self._report_lock:
             self.last_stop_report[name] = None
 
-    def _stop_failed(self, name: str, error: Exception) -> None:
+    def _stop_failed(self, name: str, error: BaseException) -> None:
         with self._report_lock:
             self.last_stop_report[name] = f"unconfirmed: {type(error).__name__}: {error}"
 

@@ -102,8 +102,8 @@ def open_url(url: str, timeout: float, baudrate: int) -> Any:
     return _serial.serial_for_url(url, baudrate=baudrate, timeout=timeout, write_timeout=WRITE_TIMEOUT)
 
 
-def _link_errors() -> tuple[type, ...]:
-    errs: tuple[type, ...] = (OSError, EOFError)
+def _link_errors() -> tuple[type[Exception], ...]:
+    errs: tuple[type[Exception], ...] = (OSError, EOFError)
     if _serial is not None:
         errs = errs + (_serial.SerialException,)
     return errs

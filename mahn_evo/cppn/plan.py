@@ -80,22 +80,23 @@ class CppnPlan:
         double-precision variant.  For the HyperNEAT CPPN, column 0 of the result is the weight output and
         column 1 the bias output.
         """
-        x = np.asarray(inputs, dtype=dtype)
+        x: np.ndarray = np.asarray(inputs, dtype=dtype)
         if x.ndim == 1:
             x = x[None, :]
         if x.ndim != 2 or x.shape[1] != self.n_inputs:
             raise ValueError(f"CppnPlan.evaluate: expected inputs of shape (Q, {self.n_inputs}), got {x.shape}")
         q = x.shape[0]
-        v = np.empty((self.n_slots, q), dtype=dtype)
+        v: np.ndarray = np.empty((self.n_slots, q), dtype=dtype)
         v[0] = 1.0
         v[1 : 1 + self.n_inputs] = x.T
         v[1 + self.n_inputs] = 0.0
-        w = self.term_weight.astype(dtype)
+        w: np.ndarray = self.term_weight.astype(dtype)
         ptr = self.term_ptr.tolist()
         src = self.term_src.tolist()
         acts = self.op_act.tolist()
         modes = self.op_mode.tolist()
         slot = self.first_op_slot
+        acc: np.ndarray
         for k in range(len(acts)):
             a, b = ptr[k], ptr[k + 1]
             if modes[k] == MODE_SUM:

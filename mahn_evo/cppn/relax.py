@@ -148,7 +148,9 @@ def compile_relax(genome: Genome) -> RelaxPlan:
     act = np.zeros(len(order), dtype=np.int64)
     for n in rest:
         act[index[n.id]] = activation_code("zero" if n.kind == "module_out" else n.activation)
-    mod_ptr, mod_in, mod_out = [0], [], []
+    mod_ptr: list[int] = [0]
+    mod_in: list[int] = []
+    mod_out: list[int] = []
     for m in genome.modules:
         if m.function != "multiply" or len(m.outputs) != 1:
             raise ValueError(f"compile_relax: only one-output Multiply modules are known, got {m}")

@@ -17,7 +17,7 @@ from ..files import read_json_object
 from .plan import ExperimentPlan
 
 #: The paper's figures (IROS 2011, 15 runs per mode, population 500, up to 1000 generations).
-PAPER = {
+PAPER: dict[str, Any] = {  # the paper's numbers: per mode a dict, plus the Fisher p and transfer text
     "situational": {"runs": 15, "solved": 15, "generations_mean": 264.6, "generations_sd": 246.28},
     "standard": {"runs": 15, "solved": 3},
     "fisher_p": "< 0.0001",

@@ -101,7 +101,9 @@ def trajectories(champ: Champion, seed: int = 0) -> dict[str, tuple[np.ndarray, 
     for m in TRANSFER_MAPS:
         sim = BatchSim(m, 1)
         res = sim.run_controllers(champ.controllers, record=True)
+        assert res.trajectories is not None  # record=True records them
         paths[f"{m} / training"] = (res.trajectories[0], sim.params.signal_tick)
         seq = sequential_episode(_policy(champ), map=m, seed=seed, record=True)
+        assert seq.trajectory is not None  # record=True records it
         paths[f"{m} / sequential"] = (seq.trajectory, None)
     return paths

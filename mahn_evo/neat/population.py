@@ -246,6 +246,7 @@ class Population:
                 row_of[sp.id] = index.add(o.genome)
                 new_species.append(sp)
                 if keys is not None:
+                    assert salt is not None  # keys exist only when the salt does (set together above)
                     keys.append(order_keys([sp.id], salt)[0])
 
         # 6. threshold and full re-speciation
@@ -386,5 +387,6 @@ def _rng_from_state(d: dict[str, Any]) -> np.random.Generator:
     if d.get("bit_generator") != "PCG64":
         raise ValueError(f"Population.from_dict: rng must be PCG64, got {d.get('bit_generator')!r}")
     bg = np.random.PCG64()
-    bg.state = d
+    # numpy's stubs type this setter with their private TypedDict _PCG64State; the setter checks the dict itself.
+    bg.state = d  # type: ignore[assignment]
     return np.random.Generator(bg)
