@@ -132,7 +132,7 @@ class BatchSim:
         return base
 
     def reset(self, seed: int = 0, poses: np.ndarray | None = None,
-              episode_keys: Sequence[int] | None = None) -> np.ndarray:
+              episode_keys: Sequence[int] | np.ndarray | None = None) -> np.ndarray:
         """Place the robots and sense; returns observations (B, R, 7).
 
         `episode_keys` name the episodes for the random streams (default 0..B-1): the same key and seed give
@@ -219,7 +219,7 @@ class BatchSim:
         return self.prev_fit.copy(), self.solved.copy()
 
     def run_random(self, seed: int = 0, p_left: float = 1 / 3, p_forward: float = 1 / 3,
-                   episode_keys: Sequence[int] | None = None) -> RunResult:
+                   episode_keys: Sequence[int] | np.ndarray | None = None) -> RunResult:
         """Whole episodes of a random team in the compiled loop (random-policy reference, benchmark)."""
         if not (0 <= p_left <= 1 and 0 <= p_forward <= 1 and p_left + p_forward <= 1):
             raise ValueError("p_left and p_forward must be probabilities with p_left + p_forward <= 1")
@@ -235,7 +235,7 @@ class BatchSim:
 
     # ------------------------------------------------------------------ controllers in the loop
     def run_controllers(self, controllers: TeamControllers, seed: int = 0, poses: np.ndarray | None = None,
-                        episode_keys: Sequence[int] | None = None, record: bool = False) -> RunResult:
+                        episode_keys: Sequence[int] | np.ndarray | None = None, record: bool = False) -> RunResult:
         """Run whole episodes with evolved controllers inside the compiled loop (both cores).
 
         A single team is run in every episode; a batch of B teams runs team b in episode b.

@@ -14,8 +14,6 @@ from . import task as T
 ORIGINAL_MAX_TICKS = 1364
 ORIGINAL_SIGNAL_TICK = 690
 ORIGINAL_SAMPLE_PERIOD = 30
-#: The noise levels of TaskParams (all 0 in the original task).
-NOISE_FIELDS = ("sensor_noise", "effector_noise", "heading_noise", "start_jitter_xy", "start_jitter_heading")
 
 
 def check_flag(value: object, field: str) -> bool:
@@ -70,7 +68,8 @@ class TaskParams:
 
     def without_noise(self) -> TaskParams:
         """The same task with every noise level (sensor, effector, heading, start jitter) at 0."""
-        return replace(self, **{name: 0.0 for name in NOISE_FIELDS})
+        return replace(self, sensor_noise=0.0, effector_noise=0.0, heading_noise=0.0, start_jitter_xy=0.0,
+                       start_jitter_heading=0.0)
 
     @classmethod
     def from_mapping(cls, data: dict) -> TaskParams:
