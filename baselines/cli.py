@@ -43,29 +43,31 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True)
 
     t = sub.add_parser("train", help="train one run (PPO, RecurrentPPO or DQN, parameter sharing)")
-    t.add_argument("--algo", choices=ALGO_NAMES, required=True)
+    t.add_argument("--algo", choices=ALGO_NAMES, required=True, help="stable-baselines3 algorithm")
     t.add_argument("--steps", type=int, required=True, help="budget in robot-steps (SB3 timesteps)")
-    t.add_argument("--seed", type=int, default=0)
-    t.add_argument("--out", type=Path, required=True)
+    t.add_argument("--seed", type=int, default=0, help="the run's seed (default %(default)s)")
+    t.add_argument("--out", type=Path, required=True, help="run folder (models, log, summary)")
     t.add_argument("--map", default="plus", help="training map")
     t.add_argument("--progress", action="store_true", help="show a progress bar")
     _add_task_args(t)
 
     e = sub.add_parser("eval", help="score a trained run (team fitness, solved) on maps x protocols")
-    e.add_argument("run", type=Path)
-    e.add_argument("--maps", nargs="+", default=list(EVAL_MAPS))
+    e.add_argument("run", type=Path, help="a run folder of `train` or `lean`")
+    e.add_argument("--maps", nargs="+", default=list(EVAL_MAPS), help="maps to score on (default: %(default)s)")
     e.add_argument("--protocols", nargs="+", default=["training", "sequential"],
                    help="training (signal at tick 690) and/or sequential (needs mahn_evo.protocols)")
-    e.add_argument("--episodes", type=int, default=1)
-    e.add_argument("--seed", type=int, default=0)
-    e.add_argument("--model", choices=("best", "final"), default="best")
+    e.add_argument("--episodes", type=int, default=1, help="episodes per map and protocol (default %(default)s)")
+    e.add_argument("--seed", type=int, default=0, help="seed of the evaluation episodes (default %(default)s)")
+    e.add_argument("--model", choices=("best", "final"), default="best",
+                   help="the best checkpoint seen during training or the last one (default %(default)s)")
     e.add_argument("--stochastic", action="store_true", help="sample actions instead of the greedy policy")
     e.add_argument("--json", action="store_true", help="print the results as JSON")
 
     c = sub.add_parser("compare", help="several seeds per method at matched budgets, table + plot")
     c.add_argument("--runs-dir", type=Path, default=Path("runs/baselines"), help="where RL runs live / go")
-    c.add_argument("--algos", nargs="*", default=list(ALGO_NAMES), choices=ALGO_NAMES)
-    c.add_argument("--seeds", nargs="*", type=int, default=[0, 1, 2])
+    c.add_argument("--algos", nargs="*", default=list(ALGO_NAMES), choices=ALGO_NAMES,
+                   help="stable-baselines3 algorithms compared (default: all)")
+    c.add_argument("--seeds", nargs="*", type=int, default=[0, 1, 2], help="seeds per algorithm (default 0 1 2)")
     c.add_argument("--steps", type=int, default=None,
                    help="RL budget in robot-steps (default: the largest evolution budget among --evo-runs)")
     c.add_argument("--no-train", action="store_true", help="only compare runs that already exist")
@@ -73,15 +75,18 @@ def build_parser() -> argparse.ArgumentParser:
                    help="mahn-evo train (or mahn-baselines cmaes) output directories")
     c.add_argument("--rl-runs", nargs="*", type=Path, default=[],
                    help="more finished RL run directories to include as they are (e.g. mahn-baselines lean runs)")
-    c.add_argument("--out", type=Path, default=Path("docs/results/baselines"))
+    c.add_argument("--out", type=Path, default=Path("docs/results/baselines"),
+                   help="folder of the comparison files (default %(default)s)")
     c.add_argument("--points", type=int, default=12, help="budget points in the table")
     _add_task_args(c)
 
     lp = sub.add_parser("lean", help="train a lean PPO run: ippo_gru, mappo_gru or ppo_ff (torch; resumable)")
-    lp.add_argument("--method", choices=LEAN_METHODS, required=True)
+    lp.add_argument("--method", choices=LEAN_METHODS, required=True,
+                    help="ippo_gru / mappo_gru (recurrent; decentralised / centralised critic) or ppo_ff "
+                         "(frame-stacked)")
     lp.add_argument("--steps", type=_count, required=True, help="budget in robot-steps (e.g. 1e8)")
-    lp.add_argument("--seed", type=int, default=0)
-    lp.add_argument("--out", type=Path, required=True)
+    lp.add_argument("--seed", type=int, default=0, help="the run's seed (default %(default)s)")
+    lp.add_argument("--out", type=Path, required=True, help="run folder (checkpoints, log, summary)")
     lp.add_argument("--resume", action="store_true",
                     help="continue the run in --out if there is one (else start it): one command to rerun")
     _add_lean_task_args(lp)
@@ -89,26 +94,27 @@ def build_parser() -> argparse.ArgumentParser:
                     help="JSON overrides of the settings in baselines/lean_config.py (e.g. a tune best.json)")
 
     cm = sub.add_parser("cmaes", help="direct-encoding control: CMA-ES on the substrate networks (resumable)")
-    cm.add_argument("--mode", choices=("situational", "standard"), default="situational")
-    cm.add_argument("--generations", type=int, required=True)
-    cm.add_argument("--popsize", type=int, default=100)
-    cm.add_argument("--sigma0", type=float, default=1.0)
-    cm.add_argument("--seed", type=int, default=0)
-    cm.add_argument("--out", type=Path, required=True)
+    cm.add_argument("--mode", choices=("situational", "standard"), default="situational",
+                    help="policy geometry of the evolved networks (default %(default)s)")
+    cm.add_argument("--generations", type=int, required=True, help="CMA-ES generations to run")
+    cm.add_argument("--popsize", type=int, default=100, help="candidates per generation (default %(default)s)")
+    cm.add_argument("--sigma0", type=float, default=1.0, help="initial step size (default %(default)s)")
+    cm.add_argument("--seed", type=int, default=0, help="the run's seed (default %(default)s)")
+    cm.add_argument("--out", type=Path, required=True, help="run folder (history, log, summary)")
     cm.add_argument("--resume", action="store_true", help="continue the run in --out if there is one")
     cm.add_argument("--episodes", type=int, default=1, help="episodes per candidate")
     cm.add_argument("--checkpoint-every", type=int, default=10, help="generations between checkpoints")
-    cm.add_argument("--map", default="plus")
-    cm.add_argument("--max-cycles", type=int, default=1364)
-    cm.add_argument("--signal-tick", type=int, default=690)
+    cm.add_argument("--map", default="plus", help="training map (default %(default)s)")
+    cm.add_argument("--max-cycles", type=int, default=1364, help="episode length in ticks (default: the paper's)")
+    cm.add_argument("--signal-tick", type=int, default=690, help="tick of the come-home signal")
 
     tu = sub.add_parser("tune", help="optuna search of a lean PPO method's hyper-parameters (resumable)")
-    tu.add_argument("--method", choices=LEAN_METHODS, required=True)
+    tu.add_argument("--method", choices=LEAN_METHODS, required=True, help="the lean PPO method to tune")
     tu.add_argument("--trials", type=int, default=25, help="finished trials to reach")
     tu.add_argument("--steps", type=_count, default=20_000_000, help="robot-steps per trial")
     tu.add_argument("--seed", type=int, default=0, help="seed of the sampler")
     tu.add_argument("--tuning-seed", type=int, default=100, help="training seed of every trial")
-    tu.add_argument("--out", type=Path, required=True)
+    tu.add_argument("--out", type=Path, required=True, help="study folder (trials, study file, best.json)")
     _add_lean_task_args(tu)
     return parser
 

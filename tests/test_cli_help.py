@@ -5,8 +5,11 @@ import argparse
 
 import pytest
 
+from baselines.cli import build_parser as baselines_parser
 from mahn_envs.cli import build_parser as envs_parser
 from mahn_evo.cli import build_parser as evo_parser
+
+TOOLS = {"mahn-evo": evo_parser, "mahn-envs": envs_parser, "mahn-baselines": baselines_parser}
 
 
 def _subcommands(parser: argparse.ArgumentParser) -> dict[str, argparse.ArgumentParser]:
@@ -21,13 +24,12 @@ def _undocumented(parser: argparse.ArgumentParser) -> list[str]:
             if not isinstance(a, argparse._HelpAction) and not (a.help and a.help.strip())]
 
 
-CASES = [(tool, name) for tool, build in (("mahn-evo", evo_parser), ("mahn-envs", envs_parser))
-         for name in _subcommands(build())]
+CASES = [(tool, name) for tool, build in TOOLS.items() for name in _subcommands(build())]
 
 
 @pytest.mark.parametrize(("tool", "command"), CASES)
 def test_every_option_has_help(tool, command, capsys):
-    build = evo_parser if tool == "mahn-evo" else envs_parser
+    build = TOOLS[tool]
     sub = _subcommands(build())[command]
     assert _undocumented(sub) == []
     with pytest.raises(SystemExit) as stop:
