@@ -38,3 +38,17 @@ def test_screen_refuses_unequal_budgets_and_unknown_baselines(tmp_path):
         screen_results([tmp_path / "a", tmp_path / "b"], baseline="a")
     with pytest.raises(ValueError, match="baseline"):
         screen_results([tmp_path / "a"], baseline="c")
+
+
+def test_experiment_cli_takes_presets_and_robust_options(tmp_path):
+    out = tmp_path / "exp"
+    assert main(["experiment", "--modes", "situational", "--runs", "1", "--seed", "5", "--generations", "1",
+                 "--pop", "16", "--max-cycles", "240", "--signal-tick", "120", "--preset", "iros2011-code",
+                 "--noise", "generalization", "--episodes", "2", "--noise-draws", "per_generation",
+                 "--no-analysis", "--workers", "1", "--out", str(out)]) == 0
+    plan = json.loads((out / "experiment.json").read_text())
+    assert (plan["init"], plan["evaluate_modules"], plan["noise"], plan["episodes"]) == \
+        ("iros2011", False, "generalization", 2)
+    assert plan["neat"]["species_order"] == "random" and plan["neat"]["stagnation_rule"] == "sticky"
+    cfg = json.loads((out / "runs" / "situational_s005" / "config.json").read_text())
+    assert cfg["task"]["sensor_noise"] == 5.0 and cfg["noise_draws"] == "per_generation"
