@@ -50,6 +50,7 @@ def screen_results(folders: Sequence[str | Path], baseline: str, mode: str = "si
         entry: dict[str, Any] = {
             "folder": str(paths[name]),
             "finished_seeds": sorted(runs), "runs": len(rows), "solved": int(solved),
+            "solved_all_finished": int(sum(r.solved for r in runs.values())),
             "solved_seeds": [r.seed for r in rows if r.solved],
             "generations_mean": float(gens.mean()) if gens.size else None,
             "generations_median": float(np.median(gens)) if gens.size else None,
@@ -72,12 +73,14 @@ def screen_markdown(res: dict[str, Any]) -> str:
     lines = [f"# Screen: {res['mode']}, at most {res['generations']} generations",
              "", f"Seeds finished in every variant: {n} ({', '.join(map(str, res['seeds'])) or 'none'}).",
              "", f"| variant | solved by generation {res['generations']} | mean generations to solve | "
-                 f"median best fitness | Fisher p vs {res['baseline']} |", "|---|---|---|---|---|"]
+                 f"median best fitness | Fisher p vs {res['baseline']} | all its finished seeds |",
+             "|---|---|---|---|---|---|"]
     for name, v in res["variants"].items():
         mean = "" if v["generations_mean"] is None else f"{v['generations_mean']:.1f}"
         best = "" if v["best_fitness_median"] is None else f"{v['best_fitness_median']:.1f}"
         p = "" if "fisher_p_vs_baseline" not in v else f"{v['fisher_p_vs_baseline']:.3f}"
-        lines.append(f"| {name} | {v['solved']}/{v['runs']} | {mean} | {best} | {p} |")
+        lines.append(f"| {name} | {v['solved']}/{v['runs']} | {mean} | {best} | {p} | "
+                     f"{v['solved_all_finished']}/{len(v['finished_seeds'])} |")
     return "\n".join(lines) + "\n"
 
 
