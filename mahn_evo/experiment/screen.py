@@ -51,6 +51,7 @@ def screen_results(folders: Sequence[str | Path], baseline: str, mode: str = "si
             "folder": str(paths[name]),
             "finished_seeds": sorted(runs), "runs": len(rows), "solved": int(solved),
             "solved_all_finished": int(sum(r.solved for r in runs.values())),
+            "finished_runs": [runs[s].to_dict() for s in sorted(runs)],
             "solved_seeds": [r.seed for r in rows if r.solved],
             "generations_mean": float(gens.mean()) if gens.size else None,
             "generations_median": float(np.median(gens)) if gens.size else None,

@@ -28,6 +28,7 @@ def test_screen_compares_common_seeds_and_writes_its_files(tmp_path):
     assert relax["runs"] == 1 and relax["plan"]["cppn_activation"] == "relax"
     assert relax["fisher_p_vs_baseline"] == 1.0 and len(relax["survival"]) == 2
     assert res["variants"]["default"]["solved_all_finished"] == 0
+    assert [r["seed"] for r in res["variants"]["default"]["finished_runs"]] == [5, 6]
     assert (out / "survival.png").stat().st_size > 1000 and "| relax | 0/1 |" in (out / "screen.md").read_text()
 
 
