@@ -43,6 +43,8 @@ from mahn_evo.evaluator import TeamEvaluator
 from mahn_evo.files import atomic_write_csv, atomic_write_json, read_versioned_json, versioned
 from mahn_evo.substrate import MODES, WEIGHT_RANGE, query_layout
 
+from .io import new_run_folder
+
 LOG_HEADER = ["generation", "evaluations", "best_fitness", "mean_fitness", "best_ever", "solved", "n_solved",
               "sigma", "cpu_seconds", "seconds"]
 STOPPING_RULES = ("generations",)
@@ -153,12 +155,7 @@ class DirectCMA:
         if resume:
             self._resume(ckpt)
         else:
-            if ckpt.exists():
-                raise ValueError(f"{str(self.out)!r} already holds a run (checkpoint.json); resume it or choose "
-                                 "another --out")
-            self.out.mkdir(parents=True, exist_ok=True)
-            atomic_write_json(self.out / "config.json", versioned("cma_config", {**cfg.to_dict(),
-                                                                                  "method": self.method}))
+            new_run_folder(self.out, "cma_config", {**cfg.to_dict(), "method": self.method})
 
     @property
     def method(self) -> str:

@@ -38,3 +38,13 @@ def write_csv(path: str | Path, fieldnames: Sequence[str], rows: Iterable[Mappin
 def read_csv(path: str | Path) -> list[dict[str, str]]:
     with open(path, encoding="utf-8", newline="") as f:
         return list(csv.DictReader(f))
+
+
+def new_run_folder(out: Path, kind: str, config: Mapping[str, Any]) -> None:
+    """Start a run in `out`: refuse a folder that already holds one (it must be resumed), then write its config."""
+    from mahn_evo.files import atomic_write_json, versioned
+
+    if (out / "checkpoint.json").exists():
+        raise ValueError(f"{str(out)!r} already holds a run (checkpoint.json); resume it or choose another --out")
+    out.mkdir(parents=True, exist_ok=True)
+    atomic_write_json(out / "config.json", versioned(kind, dict(config)))

@@ -35,7 +35,7 @@ from torch import nn
 
 from mahn_evo.files import atomic_write_json, read_versioned_json, versioned
 
-from .io import write_csv
+from .io import new_run_folder, write_csv
 from .lean_config import STOPPING_RULES, LeanConfig
 from .lean_nets import GRUNet, LeanTeamPolicy, build_networks, sample_actions, stack_frames
 from .protocols import run_protocol
@@ -145,11 +145,7 @@ class LeanPPO:
         if resume:
             self._resume(ckpt)
         else:
-            if ckpt.exists():
-                raise ValueError(f"{str(self.out)!r} already holds a run (checkpoint.json); resume it or choose "
-                                 "another --out")
-            self.out.mkdir(parents=True, exist_ok=True)
-            atomic_write_json(self.out / "config.json", versioned("lean_config", cfg.to_dict()))
+            new_run_folder(self.out, "lean_config", cfg.to_dict())
         self.buf = Rollout(self.T, self.N, cfg.n_episodes, self.env.observation_space.shape[0],
                            self.env.global_state_size, cfg, cfg.hidden)
 
