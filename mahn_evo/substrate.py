@@ -170,6 +170,20 @@ def _scale(total):
 
 
 @njit(cache=True, error_model="numpy", inline="always")
+def _row_scales(row, n, normalise):
+    """(positive, negative) scale of one target node's n incoming weights: each sign sums to 3 (sums in order)."""
+    if not normalise:
+        return 1.0, 1.0
+    pos = 0.0
+    neg = 0.0
+    for c in range(n):
+        w = row[c]
+        pos = pos + (w if w > 0 else 0.0)
+        neg = neg + (-w if w < 0 else 0.0)
+    return _scale(pos), _scale(neg)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
 def _scaled(w, pos_scale, neg_scale):
     if w > 0:
         return w * pos_scale
@@ -193,17 +207,7 @@ def _decode(outputs, q_ih, q_hh, q_ho, q_bh, q_bo, normalise, w_ih, w_hh, w_ho, 
                         row[j] = _weight(outputs[n, q, 0]) if q >= 0 else 0.0
                     for m in range(H):
                         row[n_in + m] = _weight(outputs[n, q_hh[r, k, i, m], 0])
-                    pos_scale = 1.0
-                    neg_scale = 1.0
-                    if normalise:
-                        pos = 0.0
-                        neg = 0.0
-                        for c in range(n_in + H):
-                            w = row[c]
-                            pos = pos + (w if w > 0 else 0.0)
-                            neg = neg + (-w if w < 0 else 0.0)
-                        pos_scale = _scale(pos)
-                        neg_scale = _scale(neg)
+                    pos_scale, neg_scale = _row_scales(row, n_in + H, normalise)
                     for j in range(n_in):
                         w_ih[n, r, k, i, j] = np.float32(_scaled(row[j], pos_scale, neg_scale))
                     for m in range(H):
@@ -212,17 +216,7 @@ def _decode(outputs, q_ih, q_hh, q_ho, q_bh, q_bo, normalise, w_ih, w_hh, w_ho, 
                 for o in range(3):
                     for m in range(H):
                         row[m] = _weight(outputs[n, q_ho[r, k, o, m], 0])
-                    pos_scale = 1.0
-                    neg_scale = 1.0
-                    if normalise:
-                        pos = 0.0
-                        neg = 0.0
-                        for m in range(H):
-                            w = row[m]
-                            pos = pos + (w if w > 0 else 0.0)
-                            neg = neg + (-w if w < 0 else 0.0)
-                        pos_scale = _scale(pos)
-                        neg_scale = _scale(neg)
+                    pos_scale, neg_scale = _row_scales(row, H, normalise)
                     for m in range(H):
                         w_ho[n, r, k, o, m] = np.float32(_scaled(row[m], pos_scale, neg_scale))
                     b_o[n, r, k, o] = np.float32(WEIGHT_RANGE * np.float64(outputs[n, q_bo[r, k, o], 1]))
