@@ -74,6 +74,20 @@ def test_relax_is_deterministic_and_bounded_on_random_recurrent_cppns(seed):
     assert a.shape == (64, 2) and a.dtype == np.float32 and np.all(np.abs(a) <= 1.0)
 
 
+@pytest.mark.parametrize("seed", range(6))
+def test_relax_lanes_give_each_query_exactly_its_own_relaxation(seed):
+    """Queries relax side by side in blocks (cppn/relax.py LANES); a block runs until its slowest lane settles.
+    Each query must still get bit for bit what it gets alone, for block sizes that leave partial blocks."""
+    from mahn_evo.cppn.relax import LANES
+    g = random_genome(seed + 10, steps=60, kind="iros2011")
+    plan = compile_relax(g)
+    q = _queries(6, n=2 * LANES + 7, seed=seed)
+    q[::5] = 0.0  # lanes that settle at different steps share blocks with the others
+    together = plan.evaluate(q)
+    alone = np.concatenate([plan.evaluate(q[i:i + 1]) for i in range(q.shape[0])])
+    np.testing.assert_array_equal(together.view(np.uint32), alone.view(np.uint32))
+
+
 def test_relax_needs_the_modules_evaluated():
     with pytest.raises(ValueError, match="relax.*evaluate_modules"):
         TrainConfig(cppn_activation="relax", evaluate_modules=False)
