@@ -113,7 +113,17 @@ class NeatDirectConfig:
         fixed: dict[str, Any] = {"population_size": self.popsize, "add_node_probability": 0.0}
         if self.start == "full":
             fixed["add_connection_probability"] = 0.0
-        return NeatSettings.from_mapping({**fixed, **self.neat})
+        settings = NeatSettings.from_mapping({**fixed, **self.neat})
+        if "initial_compatibility_threshold" in self.neat:
+            return settings
+        return settings.replace(initial_compatibility_threshold=initial_distance(settings, self.n_genes))
+
+    @property
+    def n_genes(self) -> int:
+        """Connection genes of an initial genome: every substrate connection, or all but the recurrent ones."""
+        enc = DirectEncoding(self.mode)
+        n_nets = int(np.prod(enc.shapes["w_hh"][:2]))
+        return enc.n_params - (n_nets * N_HIDDEN * N_HIDDEN if self.start == "feedforward" else 0)
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
@@ -125,6 +135,19 @@ class NeatDirectConfig:
         if unknown:
             raise ValueError(f"unknown NEAT-direct setting(s) {sorted(unknown)}; known: {sorted(names)}")
         return cls(**{k: v for k, v in d.items() if k in names})
+
+
+def initial_distance(settings: NeatSettings, n_genes: int) -> float:
+    """The expected compatibility distance of two initial genomes: their n_genes genes all match, with weights
+    U(-r, r) each, so E|w1 - w2| = 2r/3 per gene, summed (NEAT's original rule) or averaged (NEAT 2002's).
+
+    Why the initial threshold starts there and not at NeatSettings' 8: the weight term sums over matching genes,
+    and 8 is the scale of CPPNs of a few dozen genes.  Two random genomes of the 1044 substrate connections are
+    ~52 apart, so at 8 every genome would be its own species, and the threshold controller (steps of 0.1, growing
+    5 % a generation) would need ~60 generations to reach the range of its target species count; measured in
+    docs/baselines.md.  The rule (the dynamic threshold steering to population_size/10 species) stays NEAT's."""
+    per_gene = settings.weight_coefficient * 2.0 * settings.initial_weight_range / 3.0
+    return per_gene if settings.weight_difference_mean else per_gene * n_genes
 
 
 class SubstrateGenes:

@@ -140,3 +140,20 @@ def test_cli_neat_direct_starts_then_resumes_with_one_command(tmp_path):
     assert summary["generations"] == 3 and summary["method"] == "neat_direct_standard"
     config = json.loads((tmp_path / "run" / "config.json").read_text())
     assert config["generations"] == 3 and config["neat_settings"]["weight_jiggle"] == 0.1
+
+
+def test_the_initial_threshold_is_the_initial_genomes_distance(tmp_path):
+    """NEAT's threshold 8 is the scale of small CPPNs: 1044 genes at 8 would make every genome its own species."""
+    cfg = NeatDirectConfig(mode="situational", popsize=40, generations=1, **TINY)
+    assert cfg.neat_settings.initial_compatibility_threshold == pytest.approx(0.05 * 1044 * 1.0)
+    assert NeatDirectConfig(start="feedforward", mode="standard").neat_settings.initial_compatibility_threshold \
+        == pytest.approx(0.05 * 306)
+    mean_rule = NeatDirectConfig(neat={"weight_difference_mean": True}).neat_settings
+    assert mean_rule.initial_compatibility_threshold == pytest.approx(0.05)
+    assert NeatDirectConfig(neat={"initial_compatibility_threshold": 8.0}).neat_settings \
+        .initial_compatibility_threshold == 8.0
+    scaled = DirectNEAT(cfg, tmp_path / "scaled").population
+    nominal = DirectNEAT(NeatDirectConfig(mode="situational", popsize=40, generations=1,
+                                          neat={"initial_compatibility_threshold": 8.0}, **TINY),
+                         tmp_path / "nominal").population
+    assert len(nominal.species) == 40 and len(scaled.species) < 40
