@@ -177,9 +177,8 @@ class SubstrateGenes:
         src_ho = np.broadcast_to(hidden[:, :, None, :], (R, K, N_OUTPUTS, H)).ravel()
         dst_ho = np.broadcast_to(outputs[:, :, :, None], (R, K, N_OUTPUTS, H)).ravel()
         self.src = np.concatenate([src_ih, src_hh, src_ho, np.zeros(R * K * (H + N_OUTPUTS), dtype=np.int64)])
-        self.dst = np.concatenate([dst_ih, dst_hh, dst_ho, hidden.ravel(), outputs.ravel()]).astype(np.int64)
-        self.src = self.src.astype(np.int64)
-        assert self.src.size == self.encoding.n_params
+        self.dst = np.concatenate([dst_ih, dst_hh, dst_ho, hidden.ravel(), outputs.ravel()])
+        assert self.src.size == self.dst.size == self.encoding.n_params
         self.recurrent = np.zeros(self.src.size, dtype=bool)
         self.recurrent[src_ih.size:src_ih.size + src_hh.size] = True
         #: place[source, target]: index into the parameter vector, -1 where the pair is no substrate connection
@@ -210,10 +209,9 @@ class SubstrateGenes:
         expressed = np.zeros(len(genomes), dtype=np.int64)
         scale = WEIGHT_RANGE / weight_limit
         for n, g in enumerate(genomes):
-            inside = (g.src < self.n_nodes) & (g.dst < self.n_nodes)  # add-node is off: no other nodes exist
-            where = self.place[g.src[inside], g.dst[inside]]
+            where = self.place[g.src, g.dst]  # add-node is off, so every node is one of the substrate's
             ok = where >= 0
-            x[n, where[ok]] = g.weight[inside][ok] * scale
+            x[n, where[ok]] = g.weight[ok] * scale
             expressed[n] = int(ok.sum())
         return x, expressed
 
