@@ -22,7 +22,8 @@ complexification; measured short runs in docs/baselines.md).  Add-node is off (p
 exactly 9 hidden nodes per network, so a new node could not be run.  Add-connection draws (source, target) among
 all nodes, as NEAT does; pairs that are no substrate connection (input -> output, output -> anything, across
 robots) become genes that do nothing (NEAT's own code is used as it is, so they are not prevented); with the full
-start every substrate connection exists, so add-connection is off there too.
+start every substrate connection exists, so add-connection is off there too.  Speciation is NEAT's, but its
+compatibility threshold starts at the initial genomes' expected distance (`initial_distance`), not at 8.
 
 Run folder (a pure function of the seed, resumable bit-identically):
   config.json            the settings, with the resolved NEAT settings
