@@ -72,7 +72,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="RL budget in robot-steps (default: the largest evolution budget among --evo-runs)")
     c.add_argument("--no-train", action="store_true", help="only compare runs that already exist")
     c.add_argument("--evo-runs", nargs="*", type=Path, default=[],
-                   help="mahn-evo train (or mahn-baselines cmaes) output directories")
+                   help="mahn-evo train (or mahn-baselines cmaes / neat-direct) output directories")
     c.add_argument("--rl-runs", nargs="*", type=Path, default=[],
                    help="more finished RL run directories to include as they are (e.g. mahn-baselines lean runs)")
     c.add_argument("--out", type=Path, default=Path("docs/results/baselines"),
@@ -107,6 +107,27 @@ def build_parser() -> argparse.ArgumentParser:
     cm.add_argument("--map", default="plus", help="training map (default %(default)s)")
     cm.add_argument("--max-cycles", type=int, default=1364, help="episode length in ticks (default: the paper's)")
     cm.add_argument("--signal-tick", type=int, default=690, help="tick of the come-home signal")
+
+    nd = sub.add_parser("neat-direct", help="direct-encoding control: mahn's NEAT evolving the substrate networks "
+                        "(not CPPNs; resumable)")
+    nd.add_argument("--mode", choices=("situational", "standard"), default="situational",
+                    help="policy geometry of the evolved networks (default %(default)s)")
+    nd.add_argument("--generations", type=int, required=True, help="NEAT generations to run")
+    nd.add_argument("--popsize", type=int, default=500, help="population size (default %(default)s, NEAT's)")
+    nd.add_argument("--start", choices=("full", "feedforward"), default="full",
+                    help="initial genomes: every substrate connection (full), or all but the recurrent hidden "
+                         "links, which add-connection grows (feedforward); default %(default)s")
+    nd.add_argument("--seed", type=int, default=0, help="the run's seed (default %(default)s)")
+    nd.add_argument("--out", type=Path, required=True, help="run folder (checkpoint, log, summary)")
+    nd.add_argument("--resume", action="store_true", help="continue the run in --out if there is one")
+    nd.add_argument("--episodes", type=int, default=1, help="episodes per team")
+    nd.add_argument("--checkpoint-every", type=int, default=10, help="generations between checkpoints")
+    nd.add_argument("--map", default="plus", help="training map (default %(default)s)")
+    nd.add_argument("--max-cycles", type=int, default=1364, help="episode length in ticks (default: the paper's)")
+    nd.add_argument("--signal-tick", type=int, default=690, help="tick of the come-home signal")
+    nd.add_argument("--neat", type=_json_dict, default={},
+                    help="JSON overrides of NeatSettings fields (mahn_evo/neat/settings.py), e.g. "
+                         "'{\"weight_coefficient\": 0.01}'")
 
     tu = sub.add_parser("tune", help="optuna search of a lean PPO method's hyper-parameters (resumable)")
     tu.add_argument("--method", choices=LEAN_METHODS, required=True, help="the lean PPO method to tune")
@@ -178,6 +199,17 @@ def main(argv: Sequence[str] | None = None) -> int:
             summary = cma_train(cma_cfg, a.out, resume=a.resume, checkpoint_every=a.checkpoint_every,
                                 on_generation=lambda r: print(f"generation {r[0]}  best {r[2]:.3f}  best ever "
                                                               f"{r[4]:.3f}  sigma {r[7]:.3f}", flush=True))
+            print(json.dumps(summary, indent=2))
+        elif a.command == "neat-direct":
+            from .direct_neat import NeatDirectConfig
+            from .direct_neat import train as neat_train
+
+            nd_cfg = NeatDirectConfig(mode=a.mode, generations=a.generations, popsize=a.popsize, seed=a.seed,
+                                      start=a.start, map=a.map, episodes=a.episodes, max_cycles=a.max_cycles,
+                                      signal_tick=a.signal_tick, neat=a.neat)
+            summary = neat_train(nd_cfg, a.out, resume=a.resume, checkpoint_every=a.checkpoint_every,
+                                 on_generation=lambda r: print(f"generation {r[0]}  best {r[2]:.3f}  best ever "
+                                                               f"{r[4]:.3f}  species {r[7]}", flush=True))
             print(json.dumps(summary, indent=2))
         elif a.command == "tune":
             from .tune import tune
