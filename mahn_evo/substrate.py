@@ -16,6 +16,7 @@ import numpy as np
 from numba import njit
 
 from mahn_envs.controllers import N_INPUTS, TeamControllers
+from mahn_envs.core.api import policy_coordinates
 
 from .batch_cppn import evaluate_plans
 
@@ -39,13 +40,6 @@ INPUT_X = _float32_steps(-1.0, 2.0 / 5.0, 6)  # -1, -0.6000000238, ... 1.0
 HIDDEN_X = np.linspace(-1.0, 1.0, 9).astype(np.float32)
 OUTPUT_X = np.array([-1.0, 0.0, 1.0], dtype=np.float32)  # left, forward, right
 SIGNAL_POS = (np.float32(0.0), np.float32(-0.8))
-
-
-def agent_coordinates(n_robots: int) -> np.ndarray:
-    """z_k = -1 + k * 2/(n-1), accumulated in float32 (gives exactly -1, 0, 1 for three robots)."""
-    if n_robots == 1:
-        return np.zeros(1, dtype=np.float32)
-    return _float32_steps(-1.0, 2.0 / (n_robots - 1), n_robots)
 
 
 @dataclass(frozen=True)
@@ -74,7 +68,7 @@ def query_layout(mode: str, n_robots: int = 3) -> QueryLayout:
         raise ValueError(f"mode must be one of {MODES}, got {mode!r}")
     situational = mode == "situational"
     n_brains = 2 if situational else 1
-    zs = agent_coordinates(n_robots)
+    zs = policy_coordinates(n_robots)
     rows: list[tuple] = []
     R, K, H = n_robots, n_brains, len(HIDDEN_X)
     q_ih = -np.ones((R, K, H, N_INPUTS), dtype=np.int64)

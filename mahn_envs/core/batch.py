@@ -15,8 +15,9 @@ from ..khepera import DEFAULT_MODEL, KheperaModel
 from ..maps import World, load_map, wall_clearance
 from . import kernels
 from . import task as T
+from .api import Arena
 from .controller import transposed
-from .geometry import sensor_directions, touches_any_wall, wall_boxes
+from .geometry import touches_any_wall, wall_boxes
 from .params import TaskParams
 from .rng import check_seed
 
@@ -89,11 +90,8 @@ class BatchSim:
         self.n_episodes = int(n_episodes)
         self.n_robots = n_robots
         self._pvec = self.params.vector(model)
-        self._walls = np.ascontiguousarray(self.world.walls)
-        self._boxes = np.ascontiguousarray(wall_boxes(self._walls))
-        self._dirs = sensor_directions(model.sensor_angles)
-        self._pois = np.ascontiguousarray(self.world.pois)
-        self._home = np.ascontiguousarray(self.world.home)
+        #: the map's geometry as the kernels read it (public: walls, boxes, sensor_dirs, pois, home)
+        self.arena = Arena(self.world, model)
         B, R = self.n_episodes, n_robots
         self.pose = np.zeros((B, R, 4))
         self.raw = np.zeros((B, R, 6))
@@ -108,7 +106,7 @@ class BatchSim:
         self.keys = np.arange(B, dtype=np.uint64)
         self.seed = 0
         self._others = np.zeros((R, 2))
-        self._cand = np.zeros(self._walls.shape[0], dtype=np.int64)
+        self._cand = np.zeros(self.arena.walls.shape[0], dtype=np.int64)
         self._reset_done = False
 
     def set_params(self, **changes) -> TaskParams:
@@ -162,7 +160,8 @@ class BatchSim:
         self.prev_fit[:] = 0.0
         self.rewards[:] = 0.0
         self.solved[:] = False
-        kernels.sense_all(1, self.pose, self.raw, self.obs, self.rflag, self._walls, self._boxes, self._dirs,
+        a_ = self.arena
+        kernels.sense_all(1, self.pose, self.raw, self.obs, self.rflag, a_.walls, a_.boxes, a_.sensor_dirs,
                           self._pvec, self.seed, self.keys, self._others, self._cand)
         self._reset_done = True
         return self.obs
@@ -188,20 +187,54 @@ class BatchSim:
             raise ValueError(f"actions must be 0 (left), 1 (forward) or 2 (right); got values {np.unique(a)}")
         return np.ascontiguousarray(a, dtype=np.int64)
 
+    @property
+    def started(self) -> bool:
+        """True once `reset` has placed the robots (before that, `pose` holds no episode)."""
+        return self._reset_done
+
+    def _check_can_step(self) -> None:
+        if not self._reset_done:
+            raise RuntimeError("call reset() before step()")
+        if self.done:
+            raise RuntimeError(f"the episode is over (tick {self.tick} of {self.params.max_cycles}); call reset()")
+
     def step(self, actions: np.ndarray, validate: bool = True) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Advance every episode one tick.  Returns (obs (B,R,7), rewards (B,), solved (B,)).
 
         Rewards are the change of the team fitness "if the episode ended now", so they sum to the final team
         fitness exactly (up to float rounding of the telescoping sum).
         """
-        if not self._reset_done:
-            raise RuntimeError("call reset() before step()")
-        if self.done:
-            raise RuntimeError(f"the episode is over (tick {self.tick} of {self.params.max_cycles}); call reset()")
+        self._check_can_step()
         a = self.check_actions(actions) if validate else actions
+        a_ = self.arena
         kernels.step_all(a, self.pose, self.raw, self.obs, self.racc, self.rflag, self.goto, self.est,
-                         self.prev_fit, self.rewards, self.solved, self._walls, self._boxes, self._dirs,
-                         self._pois, self._home, self._pvec, self.seed, self.keys, self._others, self._cand)
+                         self.prev_fit, self.rewards, self.solved, a_.walls, a_.boxes, a_.sensor_dirs, a_.pois,
+                         a_.home, self._pvec, self.seed, self.keys, self._others, self._cand)
+        return self.obs, self.rewards, self.solved
+
+    # ------------------------------------------------------------------ one tick in parts (external motion)
+    def begin_tick(self, actions: np.ndarray, validate: bool = True) -> None:
+        """`step`'s first part, for an engine that moves the robots itself: advance the clock and turn the
+        actions (through the reflex) into headings and velocities in `pose`.  Then move every robot
+        (`move_robot_to`) and finish with `end_tick`; `step` is the three in one compiled call."""
+        self._check_can_step()
+        a = self.check_actions(actions) if validate else actions
+        kernels.decide_all(a, self.pose, self.raw, self.est, self._pvec, self.seed, self.keys)
+
+    def move_robot_to(self, episode: int, robot: int, x: float, y: float) -> bool:
+        """Put a robot where an external engine moved it this tick, under the core's wall rule: a position
+        that touches a wall is refused (the robot stays where the tick started; a collision is counted).
+        Returns True when the robot moved."""
+        return bool(T.settle_robot(int(episode), int(robot), float(x), float(y), self.pose, self.racc, self._pvec,
+                                   self.arena.walls, self.arena.boxes))
+
+    def end_tick(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """`step`'s last part: the fitness sample (and automatic signal), sensing for the next tick and the
+        rewards.  Returns (obs (B,R,7), rewards (B,), solved (B,)) like `step`."""
+        a_ = self.arena
+        kernels.finish_all(self.pose, self.raw, self.obs, self.racc, self.rflag, self.goto, self.est,
+                           self.prev_fit, self.rewards, self.solved, a_.walls, a_.boxes, a_.sensor_dirs, a_.pois,
+                           a_.home, self._pvec, self.seed, self.keys, self._others, self._cand)
         return self.obs, self.rewards, self.solved
 
     def give_signal(self, episode: int, robot: int, on: bool = True) -> None:
@@ -211,8 +244,9 @@ class BatchSim:
 
     def resense(self) -> None:
         """Recompute sensing for the coming tick (after robots were moved by hand)."""
-        kernels.sense_all(self.tick + 1, self.pose, self.raw, self.obs, self.rflag, self._walls, self._boxes,
-                          self._dirs, self._pvec, self.seed, self.keys, self._others, self._cand)
+        a_ = self.arena
+        kernels.sense_all(self.tick + 1, self.pose, self.raw, self.obs, self.rflag, a_.walls, a_.boxes,
+                          a_.sensor_dirs, self._pvec, self.seed, self.keys, self._others, self._cand)
 
     def team_fitness(self) -> tuple[np.ndarray, np.ndarray]:
         """Team fitness and `solved` of each episode as things stand (final once the episode is done)."""
@@ -226,8 +260,9 @@ class BatchSim:
         self.reset(seed=seed, episode_keys=episode_keys)
         fitness = np.zeros(self.n_episodes)
         solved = np.zeros(self.n_episodes, dtype=np.bool_)
-        kernels.run_random(self.pose, self.raw, self.obs, self.racc, self.rflag, self.goto, self.est, self._walls,
-                           self._boxes, self._dirs, self._pois, self._home, self._pvec, self.seed, self.keys,
+        a_ = self.arena
+        kernels.run_random(self.pose, self.raw, self.obs, self.racc, self.rflag, self.goto, self.est, a_.walls,
+                           a_.boxes, a_.sensor_dirs, a_.pois, a_.home, self._pvec, self.seed, self.keys,
                            float(p_left), float(p_forward), fitness, solved)
         self.prev_fit[:] = fitness
         self.solved[:] = solved
@@ -261,8 +296,9 @@ class BatchSim:
         solved = np.zeros(B, dtype=np.bool_)
         T_ = self.params.max_cycles
         traj = np.zeros((B, T_ + 1, R, 4)) if record else np.zeros((1, 1, 1, 4))
+        a_ = self.arena
         kernels.run_controllers(self.pose, self.raw, self.obs, self.racc, self.rflag, self.goto, self.est,
-                                self._walls, self._boxes, self._dirs, self._pois, self._home, self._pvec,
+                                a_.walls, a_.boxes, a_.sensor_dirs, a_.pois, a_.home, self._pvec,
                                 self.seed, self.keys, *transposed(ctrl),
                                 hid, out, brain, fitness, solved, traj, record)
         self.prev_fit[:] = fitness

@@ -1,4 +1,8 @@
-"""Compiled batch loops over episodes.  Thin: every rule lives in core.task and core.controller."""
+"""Compiled batch loops over episodes.  Thin: every rule lives in core.task and core.controller.
+
+Numba caches these loops keyed on this file only: after changing a rule in task.py, geometry.py or
+controller.py, change this file too (even a comment), or the cache keeps running the old compiled rules.
+"""
 from __future__ import annotations
 
 import math

@@ -48,6 +48,27 @@ MOVED_MIN = 5.0
 SOLVED_BONUS = 100.0
 
 
+# reflex responses (`reflex_response`): which side is blocked decides how a forward action is changed
+REFLEX_CLEAR, REFLEX_LEFT_BLOCKED, REFLEX_FRONT_BLOCKED, REFLEX_RIGHT_BLOCKED = 0, 1, 2, 3
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def unit_reading(d, f_radius, f_ir):
+    """A ray's centre-to-hit distance as the un-floored sensor value (d - radius) / IR range, in float32
+    (1 = free at the IR range, 0 = touching).  The inputs and the reflex both start from it."""
+    return (np.float32(d) - f_radius) / f_ir
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def input_value(s, f_floor):
+    """The network input of a float32 sensor value: capped at 1, and 0 at or below the floor (0.25)."""
+    if s > np.float32(1.0):
+        s = np.float32(1.0)
+    if s <= f_floor:
+        s = np.float32(0.0)
+    return s
+
+
 @njit(cache=True, error_model="numpy", inline="always")
 def encode_episode(b, tick, raw, obs, rflag, params, seed, key):
     """Turn ray distances into inputs: (d - 6.5)/10.16 in float32, noise, capped at 1, floored to 0 at <= 0.25."""
@@ -57,14 +78,10 @@ def encode_episode(b, tick, raw, obs, rflag, params, seed, key):
     noise = params[P_SNOISE] / 100.0
     for r in range(raw.shape[1]):
         for j in range(6):
-            s = (np.float32(raw[b, r, j]) - f_radius) / f_ir
+            s = unit_reading(raw[b, r, j], f_radius, f_ir)
             if noise > 0.0:
                 s = np.float32(s + np.float32(noise * (2.0 * uniform(seed, key, tick, r, CH_SENSOR + j) - 1.0)))
-            if s > np.float32(1.0):
-                s = np.float32(1.0)
-            if s <= f_floor:
-                s = np.float32(0.0)
-            obs[b, r, j] = s
+            obs[b, r, j] = input_value(s, f_floor)
         obs[b, r, 6] = np.float32(rflag[b, r, F_SIGNAL])
 
 
@@ -95,11 +112,48 @@ def cast_robot_rays(b, r, ch, sh, pose, raw, walls, boxes, dirs, params, others,
 
 
 @njit(cache=True, error_model="numpy", inline="always")
+def reflex_response(q0, q1, q2, q3, q4, q5, f_floor):
+    """The collision-avoidance reflex: which of the six float32 sensor values (index 0 leftmost) are at or below
+    the floor, checked left pair, then front pair, then right pair (the first blocked side wins)."""
+    if q0 <= f_floor or q1 <= f_floor:
+        return REFLEX_LEFT_BLOCKED
+    if q2 <= f_floor or q3 <= f_floor:
+        return REFLEX_FRONT_BLOCKED
+    if q4 <= f_floor or q5 <= f_floor:
+        return REFLEX_RIGHT_BLOCKED
+    return REFLEX_CLEAR
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def steer(action, response, velocity, speed):
+    """An action and the reflex's response -> (turn, velocity): turn +1 left, -1 right, 0 none, by one step.
+
+    Forward: blocked left -> turn right, velocity unchanged; blocked ahead -> stand still without turning;
+    blocked right -> turn left, velocity unchanged; clear -> drive at `speed`.  Left and right turn in place.
+    "Velocity unchanged" is the original's quirk: a driving robot arcs round the obstacle, a standing one turns
+    in place.
+    """
+    if action == FORWARD:
+        if response == REFLEX_LEFT_BLOCKED:
+            return -1, velocity
+        if response == REFLEX_FRONT_BLOCKED:
+            return 0, 0.0
+        if response == REFLEX_RIGHT_BLOCKED:
+            return 1, velocity
+        return 0, speed
+    if action == LEFT:
+        return 1, 0.0
+    if action == RIGHT:
+        return -1, 0.0
+    return 0, 0.0
+
+
+@njit(cache=True, error_model="numpy", inline="always")
 def decide_robot(b, r, action, tick, pose, raw, params, seed, key):
     """Apply an action (and, for forward, the collision-avoidance reflex) to heading and velocity.
 
     In our y-up frame a left turn increases the heading.  Reflex branches a and c keep the previous velocity
-    and the front branch stops without turning: original quirks that shape the evolved behaviour.
+    and the front branch stops without turning: original quirks that shape the evolved behaviour (`steer`).
     Returns True when the front reflex blocked the robot (the original's `corrected`).
     """
     speed = params[P_SPEED]
@@ -109,38 +163,27 @@ def decide_robot(b, r, action, tick, pose, raw, params, seed, key):
         speed = speed * (1.0 + e * (2.0 * uniform(seed, key, tick, r, CH_SPEED) - 1.0))
         turn = turn * (1.0 + e * (2.0 * uniform(seed, key, tick, r, CH_TURN) - 1.0))
     step = float(np.float32(np.float32(params[P_DT]) * np.float32(turn)))
-    corrected = False
-    if action == FORWARD:
+    response = REFLEX_CLEAR
+    if action == FORWARD and params[P_REFLEX] > 0.5:
         f_radius = np.float32(params[P_RADIUS])
         f_ir = np.float32(params[P_IR])
-        f_floor = np.float32(params[P_FLOOR])
-        q0 = (np.float32(raw[b, r, 0]) - f_radius) / f_ir
-        q1 = (np.float32(raw[b, r, 1]) - f_radius) / f_ir
-        q2 = (np.float32(raw[b, r, 2]) - f_radius) / f_ir
-        q3 = (np.float32(raw[b, r, 3]) - f_radius) / f_ir
-        q4 = (np.float32(raw[b, r, 4]) - f_radius) / f_ir
-        q5 = (np.float32(raw[b, r, 5]) - f_radius) / f_ir
-        if params[P_REFLEX] > 0.5 and (q0 <= f_floor or q1 <= f_floor):
-            pose[b, r, H] -= step  # wall on the left: turn right, velocity unchanged
-        elif params[P_REFLEX] > 0.5 and (q2 <= f_floor or q3 <= f_floor):
-            pose[b, r, V] = 0.0  # wall ahead: stand still
-            corrected = True
-        elif params[P_REFLEX] > 0.5 and (q4 <= f_floor or q5 <= f_floor):
-            pose[b, r, H] += step  # wall on the right: turn left, velocity unchanged
-        else:
-            pose[b, r, V] = speed
-    elif action == LEFT:
-        pose[b, r, V] = 0.0
+        response = reflex_response(unit_reading(raw[b, r, 0], f_radius, f_ir),
+                                   unit_reading(raw[b, r, 1], f_radius, f_ir),
+                                   unit_reading(raw[b, r, 2], f_radius, f_ir),
+                                   unit_reading(raw[b, r, 3], f_radius, f_ir),
+                                   unit_reading(raw[b, r, 4], f_radius, f_ir),
+                                   unit_reading(raw[b, r, 5], f_radius, f_ir),
+                                   np.float32(params[P_FLOOR]))
+    direction, velocity = steer(action, response, pose[b, r, V], speed)
+    pose[b, r, V] = velocity
+    if direction > 0:
         pose[b, r, H] += step
-    elif action == RIGHT:
-        pose[b, r, V] = 0.0
+    elif direction < 0:
         pose[b, r, H] -= step
-    else:
-        pose[b, r, V] = 0.0
     hn = params[P_HNOISE]
     if hn > 0.0:
         pose[b, r, H] += hn * (2.0 * uniform(seed, key, tick, r, CH_HEADING) - 1.0)
-    return corrected
+    return response == REFLEX_FRONT_BLOCKED
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -152,16 +195,29 @@ def move_robot(b, r, pose, racc, params, walls, boxes):
 @njit(cache=True, error_model="numpy", inline="always")
 def drive_robot(b, r, ch, sh, pose, racc, params, walls, boxes):
     """`move_robot` given ch, sh = cos and sin of the heading (shared with sensing in the episode loop)."""
-    ox = pose[b, r, X]
-    oy = pose[b, r, Y]
     d = pose[b, r, V] * params[P_DT]
-    nx = ox + ch * d
-    ny = oy + sh * d
-    if touches_any_wall(nx, ny, params[P_RADIUS], walls, boxes):
+    return settle_robot(b, r, pose[b, r, X] + ch * d, pose[b, r, Y] + sh * d, pose, racc, params, walls, boxes)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def wall_revert(ox, oy, nx, ny, radius, walls, boxes):
+    """Where a move from (ox, oy) to (nx, ny) ends: there, or back at its start when the robot would touch a
+    wall (the original's rule: no sliding along walls).  Returns (x, y, touched)."""
+    if touches_any_wall(nx, ny, radius, walls, boxes):
+        return ox, oy, True
+    return nx, ny, False
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def settle_robot(b, r, nx, ny, pose, racc, params, walls, boxes):
+    """Move robot r to (nx, ny) under the wall rule (`wall_revert`), counting a collision when it is reverted.
+    Returns True when the robot moved."""
+    x, y, touched = wall_revert(pose[b, r, X], pose[b, r, Y], nx, ny, params[P_RADIUS], walls, boxes)
+    if touched:
         racc[b, r, R_COLL] += 1.0
         return False
-    pose[b, r, X] = nx
-    pose[b, r, Y] = ny
+    pose[b, r, X] = x
+    pose[b, r, Y] = y
     return True
 
 
@@ -174,8 +230,8 @@ def _manhattan(x, y, px, py):
 def give_signal(b, pose, racc, rflag, est, pois, home):
     """The come-home event: remember where everyone is and whether every POI is covered."""
     n_robots = pose.shape[1]
+    signal_team(b, rflag, est)
     for i in range(n_robots):
-        rflag[b, i, F_SIGNAL] = 1
         racc[b, i, R_ORIG_DIST] = math.hypot(pose[b, i, X] - home[0], pose[b, i, Y] - home[1])
         racc[b, i, R_ORIG_HEAD] = pose[b, i, H]
     all_close = 1
@@ -187,7 +243,20 @@ def give_signal(b, pose, racc, rflag, est, pois, home):
         if not covered:
             all_close = 0
     est[b, E_ALLCLOSE] = all_close
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def signal_team(b, rflag, est):
+    """Give every robot the come-home signal and mark the episode as switched (no later automatic signal)."""
+    for i in range(rflag.shape[1]):
+        rflag[b, i, F_SIGNAL] = 1
     est[b, E_SWITCHED] = 1
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def signal_due(b, tick, est, params):
+    """The automatic come-home signal: at `signal_tick` (a sample tick), unless the episode was switched."""
+    return params[P_AUTOSIG] > 0.5 and tick == int(params[P_SIGT]) and est[b, E_SWITCHED] == 0
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -196,7 +265,7 @@ def score_tick(b, tick, pose, racc, rflag, goto, est, pois, home, params):
     period = int(params[P_PERIOD])
     if tick % period != 0:
         return
-    if params[P_AUTOSIG] > 0.5 and tick == int(params[P_SIGT]) and est[b, E_SWITCHED] == 0:
+    if signal_due(b, tick, est, params):
         give_signal(b, pose, racc, rflag, est, pois, home)
     n_robots = pose.shape[1]
     if est[b, E_SWITCHED] == 0:

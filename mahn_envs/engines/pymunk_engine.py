@@ -3,7 +3,7 @@
 Why this split: walls keep the task's revert-on-touch rule (so with robots apart this engine reproduces the
 kinematic core, which the parity tests pin), while pymunk resolves what the core cannot: robots that bump into
 and push each other, as in the real-world tests.  Sensing (including seeing other robots), the reflex and the
-scoring are the core's compiled functions, called on the same state arrays.
+scoring are the core's, through BatchSim's split tick (`begin_tick`, `move_robot_to`, `end_tick`).
 """
 from __future__ import annotations
 
@@ -12,9 +12,8 @@ import math
 import numpy as np
 import pymunk
 
-from ..core import BatchSim, TaskParams, kernels
+from ..core import BatchSim, TaskParams
 from ..core import task as T
-from ..core.geometry import touches_any_wall
 from ..khepera import DEFAULT_MODEL, KheperaModel
 from ..maps import World
 
@@ -56,7 +55,7 @@ class PymunkEngine:
 
     def step(self, actions: np.ndarray) -> tuple[np.ndarray, float, bool]:
         sim = self.sim
-        kernels.decide_all(actions[None, :], sim.pose, sim.raw, sim.est, sim._pvec, sim.seed, sim.keys)
+        sim.begin_tick(actions[None, :], validate=False)  # the clock, the actions and the reflex
         pose = sim.pose[0]
         old = pose[:, :2].copy()
         for r, body in enumerate(self.bodies):
@@ -65,21 +64,14 @@ class PymunkEngine:
             body.velocity = (math.cos(h) * v, math.sin(h) * v)
             body.angular_velocity = 0.0
             body.angle = float(h)
-        self.space.step(sim._pvec[T.P_DT])
-        radius = sim.model.radius
+        self.space.step(sim.model.dt_robot)
         for r, body in enumerate(self.bodies):
             x, y = body.position
-            if touches_any_wall(float(x), float(y), radius, sim._walls, sim._boxes):
-                sim.racc[0, r, T.R_COLL] += 1.0
+            if not sim.move_robot_to(0, r, x, y):  # the core's wall rule: touching a wall undoes the move
                 body.position = (float(old[r, 0]), float(old[r, 1]))
-            else:
-                pose[r, T.X] = x
-                pose[r, T.Y] = y
             body.velocity = (0.0, 0.0)
-        kernels.finish_all(sim.pose, sim.raw, sim.obs, sim.racc, sim.rflag, sim.goto, sim.est, sim.prev_fit,
-                           sim.rewards, sim.solved, sim._walls, sim._boxes, sim._dirs, sim._pois, sim._home,
-                           sim._pvec, sim.seed, sim.keys, sim._others, sim._cand)
-        return sim.obs[0], float(sim.rewards[0]), bool(sim.solved[0])
+        obs, rewards, solved = sim.end_tick()  # fitness sample, signal, sensing for the next tick, reward
+        return obs[0], float(rewards[0]), bool(solved[0])
 
     def close(self) -> None:
         for body in self.bodies:

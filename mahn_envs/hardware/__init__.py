@@ -2,8 +2,8 @@
 
 - :class:`KheperaHardwareEnv` (``env``): the PettingZoo ParallelEnv on real robots.
 - ``protocol``: codec of K-Team's ASCII protocol; ``transport``: one pyserial link per robot with timeouts and
-  bounded retries; ``calibration``: raw IR <-> [0, 1]; ``reflex``: the simulator's reflex as wheel motions;
-  ``kinematics``: motions <-> firmware wheel units; ``clock``: real, scaled and lock-step time.
+  bounded retries; ``calibration``: raw IR <-> [0, 1]; ``kinematics``: the simulator's decisions (the core's
+  reflex) as wheel motions, motions <-> firmware wheel units; ``clock``: real, scaled and lock-step time.
 - :class:`KheperaEmulator` (``emulator``): TCP servers answering the protocol from the simulator
   (``mahn-envs emulate``), with fault injection.
 See docs/hardware.md.
@@ -16,8 +16,7 @@ from .emulated_world import EmulatedWorld
 from .emulator import Fault, KheperaEmulator, parse_fault
 from .env import KheperaHardwareEnv, prompt_placement
 from .errors import HardwareError, LinkError, ProtocolError, RobotTimeout
-from .kinematics import Drive, speed_unit_for_version
-from .reflex import Motion, reflex_motion
+from .kinematics import Drive, Motion, reflex_motion, speed_unit_for_version
 from .transport import RetryPolicy, RobotLink
 
 __all__ = ["KheperaHardwareEnv", "KheperaEmulator", "EmulatedWorld", "Fault", "parse_fault", "RetryPolicy",

@@ -5,7 +5,7 @@ unit and the wheel base), integrated exactly along arcs in sub-steps of at most 
 the last time anyone looked to the clock's "now".  A sub-step that would touch a wall is undone (heading kept),
 the simulator's revert-on-collision rule.  Robots pass through each other, as in the simulator.
 
-Sensing: the same ray casts as the simulator (``core.geometry.cast_rays``, the model's six sensor angles for
+Sensing: the same ray casts as the simulator (``core.api.Arena.ranges``, the model's six sensor angles for
 ring sensors 1-6, +-129 deg and 180 deg for the back ones), turned into the simulator's un-floored unit value
 (gap / IR range), then into counts through the calibration's inverse, with the real sensor's relative Gaussian
 noise (K-Team's calibration table), rounded and capped to 12 bits.  Floor sensors read a constant.
@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from ..core.geometry import cast_rays, sensor_directions, touches_any_wall, wall_boxes
+from ..core.api import Arena
 from ..khepera import DEFAULT_MODEL, KheperaModel
 from ..maps import World, load_map
 from .calibration import PAPER, RAW_MAX, make_calibration, relative_noise
@@ -75,15 +75,10 @@ class EmulatedWorld:
         self.max_substep = float(max_substep)
         self.watchdog = watchdog
         self.motors_need_init = motors_need_init
-        self._walls = np.ascontiguousarray(self.world.walls)
-        self._boxes = np.ascontiguousarray(wall_boxes(self._walls))
+        # the simulator's geometry, with the firmware's ring of nine IR sensors: back-left, the task's six
+        # (left to right), back-right, back
         a = model.sensor_angles
-        # firmware ring order: back-left, the task's six (left to right), back-right, back
-        self._angles = np.array([BACK_ANGLES[0], *a, BACK_ANGLES[1], BACK_ANGLES[2]], dtype=np.float64)
-        self._dirs = sensor_directions(self._angles)
-        self._rays = np.zeros(9)
-        self._cand = np.zeros(self._walls.shape[0], dtype=np.int64)
-        self._others = np.zeros((max(n - 1, 1), 2))
+        self.arena = Arena(self.world, model, sensor_angles=[BACK_ANGLES[0], *a, BACK_ANGLES[1], BACK_ANGLES[2]])
         self._lock = threading.RLock()
         now = self.clock.now()
         self.time = now
@@ -121,7 +116,6 @@ class EmulatedWorld:
         n = max(1, math.ceil((t1 - t0) / self.max_substep - 1e-9))
         h = (t1 - t0) / n
         x, y, th = float(rob.pose[0]), float(rob.pose[1]), float(rob.pose[2])
-        radius = self.model.radius
         for _ in range(n):
             th1 = th + w * h
             if abs(w) < 1e-12:
@@ -129,10 +123,9 @@ class EmulatedWorld:
             else:
                 nx = x + v / w * (math.sin(th1) - math.sin(th))
                 ny = y - v / w * (math.cos(th1) - math.cos(th))
-            if v != 0.0 and touches_any_wall(nx, ny, radius, self._walls, self._boxes):
-                rob.collisions += 1
-            else:
-                x, y = nx, ny
+            if v != 0.0:  # the simulator's wall rule: a sub-step that would touch a wall is undone
+                x, y, touched = self.arena.move(x, y, nx, ny)
+                rob.collisions += touched
             th = th1
         rob.pose[:] = (x, y, th)
 
@@ -176,16 +169,11 @@ class EmulatedWorld:
         with self._lock:
             self.advance()
             rob = self.robots[k]
-            n_others = 0
+            others = None
             if self.robots_see_each_other:
-                for q, other in enumerate(self.robots):
-                    if q != k:
-                        self._others[n_others] = other.pose[:2]
-                        n_others += 1
-            cast_rays(float(rob.pose[0]), float(rob.pose[1]), float(rob.pose[2]), self._dirs,
-                      self.model.sensor_range, self._walls, self._boxes, self._others, n_others, self.model.radius,
-                      self._rays, self._cand)
-            gap = self._rays - self.model.radius
+                others = np.array([other.pose[:2] for q, other in enumerate(self.robots) if q != k]).reshape(-1, 2)
+            rays = self.arena.ranges(float(rob.pose[0]), float(rob.pose[1]), float(rob.pose[2]), others)
+            gap = rays - self.model.radius
             raw = np.asarray(self.calibration.to_raw(gap / self.model.ir_range), dtype=np.float64)
             if self.noise > 0:
                 sigma = self.noise * relative_noise(np.maximum(gap, 0.0))

@@ -36,17 +36,16 @@ import numpy as np
 from gymnasium import spaces
 from pettingzoo import ParallelEnv
 
-from ..core import task as T
+from ..core.api import ScoreKeeper, encode_inputs
 from ..core.params import TaskParams
 from ..khepera import DEFAULT_MODEL, KheperaModel
 from ..maps import World, load_map
-from ..patrol_return.env import agent_names, coerce_actions, coerce_poses, policy_coordinate, task_spaces
+from ..patrol_return.env import agent_names, agent_policy_coordinates, coerce_actions, coerce_poses, task_spaces
 from . import protocol as P
 from .calibration import make_calibration
 from .clock import RealClock
 from .errors import HardwareError, ProtocolError
-from .kinematics import SPEED_UNIT_V3, WHEEL_BASE_CM, Drive, speed_unit_for_version
-from .reflex import reflex_motion
+from .kinematics import SPEED_UNIT_V3, WHEEL_BASE_CM, Drive, reflex_motion, speed_unit_for_version
 from .transport import RetryPolicy, RobotLink, open_url
 
 PoseSource = Callable[[], Any]
@@ -159,7 +158,7 @@ class KheperaHardwareEnv(ParallelEnv):
         self.ports = list(ports)
         self.possible_agents = agent_names(n)
         self.agent_index = {a: k for k, a in enumerate(self.possible_agents)}
-        self.policy_coordinates = {a: policy_coordinate(k, n) for k, a in enumerate(self.possible_agents)}
+        self.policy_coordinates = agent_policy_coordinates(self.possible_agents)
         self.drive = Drive(model.speed if forward_speed is None else float(forward_speed),
                            model.turn_rate if turn_rate is None else float(turn_rate), float(wheel_base))
         self.calibration = make_calibration(calibration)
@@ -172,7 +171,6 @@ class KheperaHardwareEnv(ParallelEnv):
             raise ValueError(f"period must be a positive number of seconds, got {period!r}")
         self.clock = clock if clock is not None else RealClock(time_scale)
         self.params = TaskParams(max_cycles=max_cycles, signal_tick=signal_tick, auto_signal=auto_signal)
-        self._pvec = self.params.vector(model)
         self.signal_schedule = self._check_schedule(signal_schedule)
         self._placement = self._check_placement(placement)
         if pose_source is not None and not callable(pose_source):
@@ -193,12 +191,8 @@ class KheperaHardwareEnv(ParallelEnv):
         self._q = np.ones((n, 6))  # un-floored calibrated readings the agents last saw (the reflex uses them)
         self._raw = np.zeros((n, 11), dtype=np.int64)
         self._moving = np.zeros(n, dtype=bool)
-        self._tick = 0
-        self._pose = np.full((1, n, 4), np.nan)
-        self._racc = np.zeros((1, n, 4))
-        self._rflag = np.zeros((1, n, 3), dtype=np.uint8)
-        self._goto = np.zeros((1, self.world.pois.shape[0]))
-        self._est = np.zeros((1, 3), dtype=np.int64)
+        # the tick, the signals and (with a pose source) the score: the core's own rules on the given poses
+        self._score = ScoreKeeper(self.world, self.params, model, n_robots=n)
         self._fitness = 0.0
         self._solved = False
         self._t_read = 0.0
@@ -314,11 +308,11 @@ class KheperaHardwareEnv(ParallelEnv):
         from dataclasses import replace
 
         self.params = replace(self.params, max_cycles=value)
-        self._pvec = self.params.vector(self.model)
+        self._score.params = self.params
 
     @property
     def tick(self) -> int:
-        return self._tick
+        return self._score.tick
 
     # ------------------------------------------------------------------ I/O
     def _broadcast(self, commands: Sequence[P.Command]) -> list[P.Reply]:
@@ -339,9 +333,10 @@ class KheperaHardwareEnv(ParallelEnv):
                              f"{q!r} for raw {front.tolist()}: expected finite values of shape {front.shape}")
         self._q[:] = q
 
-    def _read_poses(self) -> None:
+    def _read_poses(self) -> np.ndarray | None:
+        """The pose source's (n, 3) poses now, or None without one."""
         if self.pose_source is None:
-            return
+            return None
         raw = self.pose_source()
         if isinstance(raw, Mapping):
             arr = np.array([raw[a] for a in self.possible_agents], dtype=np.float64)
@@ -350,19 +345,16 @@ class KheperaHardwareEnv(ParallelEnv):
         n = len(self.possible_agents)
         if arr.shape != (n, 3):
             raise ValueError(f"pose_source must return {n} poses (x, y, heading), got shape {arr.shape}")
-        self._pose[0, :, :3] = arr
+        return arr
 
     def _observations(self) -> dict[str, np.ndarray]:
-        obs = np.zeros((len(self.possible_agents), 7), dtype=np.float32)
-        obs[:, :6] = self._q
-        obs[:, :6][obs[:, :6] <= np.float32(self.sensor_floor)] = 0.0
-        obs[:, 6] = self._rflag[0, :, T.F_SIGNAL]
+        obs = encode_inputs(self._q, self._score.signals, self.sensor_floor)
         return {a: obs[k] for k, a in enumerate(self.agents)}
 
     def _info(self, k: int, extra: dict | None = None) -> dict[str, Any]:
-        p = self._pose[0, k]
+        p = self._score.poses[k]
         info = {"pose": None if not np.all(np.isfinite(p[:3])) else (float(p[0]), float(p[1]), float(p[2])),
-                "signal": bool(self._rflag[0, k, T.F_SIGNAL]), "tick": self._tick,
+                "signal": bool(self._score.signals[k]), "tick": self._score.tick,
                 "period": self._period_measured, "raw_ir": tuple(int(v) for v in self._raw[k, list(P.FRONT_SENSORS)])}
         if extra:
             info.update(extra)
@@ -399,22 +391,15 @@ class KheperaHardwareEnv(ParallelEnv):
         self.agents = []
         self._broadcast([P.STOP] * len(self._links))
         self._placement(dict(targets))
-        self._tick = 0
         self._moving[:] = False
-        self._racc[:] = 0.0
-        self._rflag[:] = 0
-        self._goto[:] = 0.0
-        self._est[:] = 0
         self._fitness = 0.0
         self._solved = False
-        self._pose[:] = np.nan
-        self._pose[0, :, 3] = 0.0
         self.overruns = 0
         self._period_measured = 0.0
         self._read_sensors()
         self._t_read = self.clock.now()
         self._deadline = self._t_read + self.period
-        self._read_poses()
+        self._score.reset(self._read_poses())
         self.agents = list(self.possible_agents)
         observations = self._observations()
         infos = {a: self._info(k) for k, a in enumerate(self.agents)}
@@ -455,15 +440,11 @@ class KheperaHardwareEnv(ParallelEnv):
         self._t_read = now
         # 3. sense, signal, score
         self._read_sensors()
-        self._read_poses()
-        self._tick += 1
-        self._est[0, T.E_TICK] = self._tick
-        self._after_motion(self._tick)
-        done = self._tick >= self.params.max_cycles
+        self._after_motion(self._read_poses())
+        done = self._score.tick >= self.params.max_cycles
         observations = self._observations()
         if self.pose_source is not None:
-            fit, solved = T.team_fitness(0, self._pose, self._racc, self._rflag, self._goto, self._est,
-                                         self._home)
+            fit, solved = self._score.fitness()
             reward = float(fit - self._fitness)
             self._fitness, self._solved = float(fit), bool(solved)
         else:
@@ -484,30 +465,21 @@ class KheperaHardwareEnv(ParallelEnv):
             self.render()
         return observations, rewards, terminations, truncations, infos
 
-    @property
-    def _home(self) -> np.ndarray:
-        return np.ascontiguousarray(self.world.home)
-
-    def _after_motion(self, tick: int) -> None:
-        """Fitness sample and the automatic signal (the simulator's code), then scheduled signals."""
-        if self.pose_source is not None:
-            T.score_tick(0, tick, self._pose, self._racc, self._rflag, self._goto, self._est,
-                         np.ascontiguousarray(self.world.pois), self._home, self._pvec)
-        elif (self.params.auto_signal and tick == self.params.signal_tick
-              and self._est[0, T.E_SWITCHED] == 0):
-            self._rflag[0, :, T.F_SIGNAL] = 1
-            self._est[0, T.E_SWITCHED] = 1
+    def _after_motion(self, poses: np.ndarray | None) -> None:
+        """The tick has passed: the core's fitness sample and automatic signal (only the signal without poses),
+        then this env's scheduled signals."""
+        self._score.advance(poses)
         for agent, t in self.signal_schedule.items():
-            if t == tick:
-                self._rflag[0, self.agent_index[agent], T.F_SIGNAL] = 1
+            if t == self._score.tick:
+                self._score.set_signal(self.agent_index[agent], True)
 
     # ------------------------------------------------------------------ operator signal
     def call_home(self, agent: str) -> None:
         """Give one robot the come-home signal now (it shows in the next observation)."""
-        self._rflag[0, self._index(agent), T.F_SIGNAL] = 1
+        self._score.set_signal(self._index(agent), True)
 
     def clear_signal(self, agent: str) -> None:
-        self._rflag[0, self._index(agent), T.F_SIGNAL] = 0
+        self._score.set_signal(self._index(agent), False)
 
     def _index(self, agent: str) -> int:
         try:
@@ -650,14 +622,14 @@ class KheperaHardwareEnv(ParallelEnv):
     # ------------------------------------------------------------------ state, rendering
     def state(self) -> np.ndarray:
         """(x, y, heading, signal) of every robot, robot-major; NaN poses without a pose_source."""
-        s = np.concatenate([self._pose[0, :, :3], self._rflag[0, :, T.F_SIGNAL:T.F_SIGNAL + 1]], axis=1)
+        s = np.concatenate([self._score.poses, self._score.signals[:, None]], axis=1)
         return s.astype(np.float32).reshape(-1)
 
     def render(self):
         from ..patrol_return.rendering import render_env
 
         rays = np.minimum(self.model.radius + self._q * self.model.ir_range, self.model.sensor_range)
-        return render_env(self, self._pose[0, :, :3], rays, self._rflag[0, :, T.F_SIGNAL].astype(bool), self._tick,
+        return render_env(self, self._score.poses, rays, self._score.signals.astype(bool), self._score.tick,
                           self._fitness)
 
 

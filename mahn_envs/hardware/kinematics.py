@@ -10,13 +10,50 @@ practice, so calibrate it by timing a full turn in place (docs/hardware.md).
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
+from enum import IntEnum
 
-from .reflex import Motion
+from ..core.api import TURN_LEFT, TURN_RIGHT, steer
 
 SPEED_UNIT_V3 = 218.72  # firmware units per mm/s, motor firmware >= 3.0
 SPEED_UNIT_V2 = 144.01  # below 3.0
 WHEEL_BASE_CM = 8.85
+
+
+class Motion(IntEnum):
+    """What the wheels do for one tick."""
+
+    LEFT = 0  # turn left in place
+    FORWARD = 1
+    RIGHT = 2  # turn right in place
+    STOP = 3
+    ARC_LEFT = 4  # forward speed while turning left (side reflex while moving)
+    ARC_RIGHT = 5
+
+    @property
+    def moving(self) -> bool:
+        return self in (Motion.FORWARD, Motion.ARC_LEFT, Motion.ARC_RIGHT)
+
+    @classmethod
+    def of(cls, turn: int, velocity: float) -> Motion:
+        """The motion of the core's (turn, velocity) decision (core.api.steer)."""
+        driving = velocity > 0.0
+        if turn == TURN_LEFT:
+            return cls.ARC_LEFT if driving else cls.LEFT
+        if turn == TURN_RIGHT:
+            return cls.ARC_RIGHT if driving else cls.RIGHT
+        return cls.FORWARD if driving else cls.STOP
+
+
+def reflex_motion(action: int, proximity: Sequence[float], moving: bool, floor: float = 0.25,
+                  enabled: bool = True) -> Motion:
+    """The simulator's decision (action through the collision-avoidance reflex, ``core.api.steer``) as a
+    wheel motion, given the six un-floored [0, 1] sensor values (index 0 leftmost, 1 = free) and whether the
+    robot was driving forward.  The reflex keeps the velocity when it turns, so a driving robot arcs round the
+    obstacle and a standing one turns in place; ``result.moving`` is the robot's new state."""
+    turn, velocity = steer(action, proximity, 1.0 if moving else 0.0, speed=1.0, floor=floor, reflex=enabled)
+    return Motion.of(turn, velocity)
 
 
 def speed_unit_for_version(version: int, revision: int = 0) -> float:

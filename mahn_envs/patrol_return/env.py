@@ -14,7 +14,7 @@ from gymnasium import spaces
 from pettingzoo import ParallelEnv
 from pettingzoo.utils import parallel_to_aec, wrappers
 
-from ..core import TaskParams
+from ..core import TaskParams, policy_coordinates
 from ..core import task as T
 from ..core.params import ORIGINAL_MAX_TICKS, ORIGINAL_SIGNAL_TICK, check_flag
 from ..core.rng import check_seed
@@ -29,9 +29,10 @@ def agent_names(n: int) -> list[str]:
     return [f"robot_{k}" for k in range(n)]
 
 
-def policy_coordinate(k: int, n: int) -> float:
-    """Policy-geometry coordinate z_k = -1 + 2k/(n-1) (float32 accumulation gives exactly -1, 0, 1 for n=3)."""
-    return 0.0 if n == 1 else float(np.float32(-1.0 + k * 2.0 / (n - 1)))
+def agent_policy_coordinates(agents: Sequence[str]) -> dict[str, float]:
+    """{agent: z_k}: the policy-geometry coordinate of each agent, the one the trainer's substrate uses
+    (core.api.policy_coordinates)."""
+    return {a: float(z) for a, z in zip(agents, policy_coordinates(len(agents)))}
 
 
 def coerce_action(agent: str, value: Any) -> int:
@@ -128,7 +129,7 @@ class PatrolReturnEnv(ParallelEnv):
         self.possible_agents = agent_names(n)
         self.agents: list[str] = []
         self.agent_index = {a: k for k, a in enumerate(self.possible_agents)}
-        self.policy_coordinates = {a: policy_coordinate(k, n) for k, a in enumerate(self.possible_agents)}
+        self.policy_coordinates = agent_policy_coordinates(self.possible_agents)
         self._obs_space, self._act_space, self.state_space = task_spaces(self.world, n)
         self._obs_spaces = {a: self._obs_space for a in self.possible_agents}
         self._act_spaces = {a: self._act_space for a in self.possible_agents}
@@ -173,7 +174,7 @@ class PatrolReturnEnv(ParallelEnv):
             gymnasium.logger.warn(f"ignoring unknown reset option(s) {sorted(options)}; known: ['poses']")
         pose_array = None
         if poses is not None:
-            pose_array = self.sim.pose[0, :, :3].copy() if self.sim._reset_done else self.world.starts.copy()
+            pose_array = self.sim.pose[0, :, :3].copy() if self.sim.started else self.world.starts.copy()
             pose_array[:] = self.world.starts
             for agent, p in coerce_poses(poses, self.possible_agents).items():
                 pose_array[self.agent_index[agent]] = p

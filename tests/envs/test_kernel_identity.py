@@ -177,7 +177,8 @@ def test_fused_episode_loop_matches_step_by_step_reference(brains, noisy):
     traj[:, 0, :, :3] = sim.pose[:, :, :3]
     traj[:, 0, :, 3] = -1.0
     state = (sim.pose, sim.raw, sim.obs, sim.racc, sim.rflag, sim.goto, sim.est, sim.prev_fit, sim.rewards, sim.solved,
-             sim._walls, sim._boxes, sim._dirs, sim._pois, sim._home, sim._pvec, sim.seed, sim.keys, sim._others,
+             sim.arena.walls, sim.arena.boxes, sim.arena.sensor_dirs, sim.arena.pois,
+             sim.arena.home, sim._pvec, sim.seed, sim.keys, sim._others,
              sim._cand)
     hid = np.zeros((5, 3, 9), np.float32)
     out = np.zeros((5, 3, 3), np.float32)
@@ -226,7 +227,8 @@ def test_memos_match_the_step_by_step_reference_with_evolved_teams(kind, noisy):
     traj[:, 0, :, :3] = sim.pose[:, :, :3]
     traj[:, 0, :, 3] = -1.0
     state = (sim.pose, sim.raw, sim.obs, sim.racc, sim.rflag, sim.goto, sim.est, sim.prev_fit, sim.rewards, sim.solved,
-             sim._walls, sim._boxes, sim._dirs, sim._pois, sim._home, sim._pvec, sim.seed, sim.keys, sim._others,
+             sim.arena.walls, sim.arena.boxes, sim.arena.sensor_dirs, sim.arena.pois,
+             sim.arena.home, sim._pvec, sim.seed, sim.keys, sim._others,
              sim._cand)
     hid = np.zeros((n, 3, 9), np.float32)
     out = np.zeros((n, 3, 3), np.float32)

@@ -5,8 +5,7 @@ import pytest
 
 from mahn_envs.hardware import protocol as P
 from mahn_envs.hardware.errors import ProtocolError
-from mahn_envs.hardware.kinematics import SPEED_UNIT_V3, Drive
-from mahn_envs.hardware.reflex import Motion
+from mahn_envs.hardware.kinematics import SPEED_UNIT_V3, Drive, Motion
 
 N_LINE = "n,31,210,1120,3910,4000,640,58,22,17,911,905,1234567"
 

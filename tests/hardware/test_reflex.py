@@ -1,4 +1,4 @@
-"""The hardware reflex is the simulator's reflex: same inputs, same decision as core.task.decide_robot."""
+"""The hardware reflex (kinematics.reflex_motion over core.api.steer) decides as the simulator's decide_robot."""
 from __future__ import annotations
 
 import numpy as np
@@ -6,7 +6,7 @@ import pytest
 
 from mahn_envs.core import TaskParams
 from mahn_envs.core import task as T
-from mahn_envs.hardware.reflex import Motion, reflex_motion
+from mahn_envs.hardware.kinematics import Motion, reflex_motion
 from mahn_envs.khepera import DEFAULT_MODEL
 
 

@@ -3,15 +3,16 @@ import numpy as np
 import pytest
 
 from mahn_envs import BatchSim
+from mahn_envs.core.api import policy_coordinates
 from mahn_evo.cppn import compile_cppn
 from mahn_evo.neat.initial import iros2011_seed_genome
-from mahn_evo.substrate import INPUT_X, agent_coordinates, decode_outputs, decode_population, query_layout
+from mahn_evo.substrate import INPUT_X, decode_outputs, decode_population, query_layout
 
 
 def test_substrate_coordinates():
     assert INPUT_X.tolist() == pytest.approx([-1, -0.6000000238, -0.2000000179, 0.1999999881, 0.6000000238, 1.0],
                                              abs=1e-9)
-    assert agent_coordinates(3).tolist() == [-1.0, 0.0, 1.0]
+    assert policy_coordinates(3).tolist() == [-1.0, 0.0, 1.0]
     sit, std = query_layout("situational"), query_layout("standard")
     assert sit.queries.shape == (3 * 2 * (162 + 12), 6)  # 162 pairs + 12 bias queries per agent and brain
     assert std.queries.shape == (3 * 1 * (171 + 12), 5)
