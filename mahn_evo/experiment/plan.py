@@ -124,7 +124,9 @@ class ExperimentPlan:
         if path.exists():
             saved = ExperimentPlan.load(out)
             a, b = saved.to_dict(), self.to_dict()
-            may_change = ("runs", "top", "general_episodes", "transfer_episodes", "replays")
+            # a run is a pure function of its mode, seed and settings, so more runs, another mode beside the saved
+            # ones, or another analysis leave every finished run valid
+            may_change = ("runs", "modes", "top", "general_episodes", "transfer_episodes", "replays")
             differing = sorted(k for k in a if a[k] != b[k] and k not in may_change)
             if differing:
                 hint = ""

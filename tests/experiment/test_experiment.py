@@ -37,6 +37,7 @@ def test_plan_validation_and_refusal(tmp_path):
     plan = ExperimentPlan(**SMALL)
     plan.save_or_check(tmp_path)
     ExperimentPlan(**{**SMALL, "runs": 4, "top": 1}).save_or_check(tmp_path)  # more runs: allowed
+    ExperimentPlan(**{**SMALL, "modes": ("situational",)}).save_or_check(tmp_path)  # a mode run on its own: allowed
     with pytest.raises(ValueError, match="population"):
         ExperimentPlan(**{**SMALL, "population": 20}).save_or_check(tmp_path)
     cfg = plan.train_config("standard", 7)
