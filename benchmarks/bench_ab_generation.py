@@ -8,8 +8,10 @@ tell) and checkpoint, exactly as the trainer runs them.  Every worker must produ
 optimisations are required to be bit-identical); the comparison uses each version's fastest worker and prints
 the spread over workers, since the machine is shared.  NUMBA_NUM_THREADS sets the cores of each worker.
 
-Usage: python benchmarks/bench_ab_generation.py [--rev dafc457] [--pop 500 2000] [--threads 1 2] [--repeats 3]
-       [--generations 4] [--skip 20] [--init iros2011] [--episodes 1] [--noise none|generalization]
+Several revisions (--rev dafc457 5c94b5e) are measured in the same interleaved run, each beside the checkout.
+
+Usage: python benchmarks/bench_ab_generation.py [--rev dafc457 [REV ...]] [--pop 500 2000] [--threads 1 2]
+       [--repeats 3] [--generations 4] [--skip 20] [--init iros2011] [--episodes 1] [--noise none|generalization]
 """
 from __future__ import annotations
 
@@ -44,8 +46,10 @@ with tempfile.TemporaryDirectory() as d:
     tr = Trainer(cfg.with_overrides(generations=10**6), d, resume=True)
     tr.evaluator.score(tr.evaluator.decode(tr.population.ask()[:4]))  # load the compiled code
     parts = {"decode": [], "evaluate": [], "reproduce": [], "checkpoint": []}
+    cpu = []
     digest = hashlib.sha256()
     for _ in range(n_gen):
+        c0 = time.process_time()
         t0 = time.perf_counter()
         genomes = tr.population.ask()
         controllers = tr.evaluator.decode(genomes)
@@ -56,11 +60,12 @@ with tempfile.TemporaryDirectory() as d:
         t3 = time.perf_counter()
         tr._checkpoint()
         t4 = time.perf_counter()
+        cpu.append(time.process_time() - c0)
         for k, v in zip(parts, (t1 - t0, t2 - t1, t3 - t2, t4 - t3)):
             parts[k].append(v)
         digest.update(np.ascontiguousarray(fitness, dtype=np.float64).tobytes())
         digest.update(np.ascontiguousarray(solved, dtype=np.float64).tobytes())
-print(json.dumps({"parts": parts, "digest": digest.hexdigest()}))
+print(json.dumps({"parts": parts, "cpu": cpu, "digest": digest.hexdigest()}))
 """
 
 
@@ -110,13 +115,14 @@ def measure(versions: dict[str, str], run_dir: str, generations: int, threads: i
     for k, ws in got.items():
         totals = [float(np.mean(np.sum([w["parts"][p] for p in w["parts"]], axis=0))) for w in ws]
         best = int(np.argmin(totals))
-        result[k] = {"totals": totals, "parts": {p: float(np.mean(v)) for p, v in ws[best]["parts"].items()}}
+        result[k] = {"totals": totals, "cpu": [float(np.mean(w["cpu"])) for w in ws],
+                     "parts": {p: float(np.mean(v)) for p, v in ws[best]["parts"].items()}}
     return result
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--rev", default="dafc457")
+    ap.add_argument("--rev", nargs="+", default=["dafc457"])
     ap.add_argument("--pop", type=int, nargs="+", default=[500])
     ap.add_argument("--threads", type=int, nargs="+", default=[2])
     ap.add_argument("--repeats", type=int, default=3, help="workers per version and setting")
@@ -128,7 +134,8 @@ def main() -> None:
     args = ap.parse_args()
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
-        versions = {args.rev: unpack_revision(args.rev, os.path.join(tmp, "rev")), "checkout": ROOT}
+        versions = {rev: unpack_revision(rev, os.path.join(tmp, f"rev{i}")) for i, rev in enumerate(args.rev)}
+        versions["checkout"] = ROOT
         for pop in args.pop:
             run_dir = os.path.join(tmp, f"run{pop}")
             make_run(run_dir, pop, args.skip, args.init, args.episodes, args.noise)
@@ -138,12 +145,20 @@ def main() -> None:
                 print_row(args, pop, threads, res)
             shutil.rmtree(run_dir)
     print(f"\nsummary ({args.init}, episodes {args.episodes}, noise {args.noise}; seconds per generation, fastest "
-          f"worker, [spread over {args.repeats} workers]):")
-    print(f"{'population':>10} {'threads':>7} {args.rev:>22} {'checkout':>22} {'speed-up':>9}")
+          f"worker, [spread over {args.repeats} workers]; load average {os.getloadavg()[0]:.1f}):")
+    names = args.rev + ["checkout"]
+    print(f"{'population':>10} {'threads':>7} " + " ".join(f"{k:>22}" for k in names)
+          + " " + " ".join(f"{'vs ' + r:>12}" for r in args.rev))
     for pop, threads, res in rows:
-        a, b = res[args.rev]["totals"], res["checkout"]["totals"]
-        print(f"{pop:>10} {threads:>7} {min(a):8.3f} [{min(a):.3f}-{max(a):.3f}] {min(b):8.3f} "
-              f"[{min(b):.3f}-{max(b):.3f}] {min(a) / min(b):8.2f}x")
+        cells = " ".join(f"{min(res[k]['totals']):8.3f} [{min(res[k]['totals']):.3f}-{max(res[k]['totals']):.3f}]"
+                         for k in names)
+        ratios = " ".join(f"{min(res[r]['totals']) / min(res['checkout']['totals']):11.2f}x" for r in args.rev)
+        print(f"{pop:>10} {threads:>7} {cells} {ratios}")
+    print("CPU seconds per generation (all threads; less sensitive to other load than the wall clock above):")
+    for pop, threads, res in rows:
+        cells = " ".join(f"{min(res[k]['cpu']):8.3f}" for k in names)
+        ratios = " ".join(f"{min(res[r]['cpu']) / min(res['checkout']['cpu']):.2f}x vs {r}" for r in args.rev)
+        print(f"{pop:>10} {threads:>7} {cells}   {ratios}")
 
 
 def print_row(args, pop: int, threads: int, res: dict) -> None:
@@ -152,8 +167,9 @@ def print_row(args, pop: int, threads: int, res: dict) -> None:
     for k, r in res.items():
         parts = "  ".join(f"{p} {v:.3f}" for p, v in r["parts"].items())
         print(f"  {k:10s} {min(r['totals']):.3f} s/generation ({parts}); workers: "
-              + " ".join(f"{t:.3f}" for t in r["totals"]))
-    print(f"  speed-up: {min(res[args.rev]['totals']) / min(res['checkout']['totals']):.2f}x", flush=True)
+              + " ".join(f"{t:.3f}" for t in r["totals"]) + f"; CPU s/generation {min(r['cpu']):.3f}")
+    print("  speed-up: " + ", ".join(f"{min(res[r]['totals']) / min(res['checkout']['totals']):.2f}x vs {r}"
+                                     for r in args.rev) + f" (load average {os.getloadavg()[0]:.1f})", flush=True)
 
 
 if __name__ == "__main__":

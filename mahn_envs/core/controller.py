@@ -17,7 +17,7 @@ from llvmlite import ir
 from numba import njit, types
 from numba.extending import intrinsic
 
-from .expf import SIGMOID_SLOPE32, TABLE, expf, sigmoid_8
+from .expf import SIGMOID_SLOPE32, TABLE, expf, sigmoid_8, sigmoid_ir
 from .task import FORWARD, LEFT, NONE, RIGHT
 
 SIGMOID_SLOPE = SIGMOID_SLOPE32  # 4.9 in float32
@@ -244,6 +244,133 @@ def remembered_action(b, r, obs, rflag_signal, wt_ih, wt_hh, wt_ho, b_h, b_o, hi
         if hid[b, r, i] != prev[i]:
             fixed = False
     for j in range(n_in):
+        memo_obs[r, j] = obs[b, r, j]
+    memo[r, 0] = 1 if fixed else 0
+    memo[r, 1] = rflag_signal
+    memo[r, 2] = action
+    return action
+
+
+#: lanes of a packed network (`pack_networks`): hidden nodes 0..8, outputs 9..11, 4 unused
+LANES = 16
+OUT_LANE = 9
+
+
+@njit(cache=True, error_model="numpy")
+def pack_networks(wt_ih, wt_hh, wt_ho, b_h, b_o, wpack, bpack):
+    """The networks of `transposed` arrays (7 inputs, 9 hidden: `is_size_9`) as rows of 16 lanes for `_network_16`.
+
+    wpack (B, R, K, 16, 16) float32: row j < 7 holds input j's weights to the hidden nodes (lanes 0..8), row
+    7 + m hidden node m's weights to the hidden nodes (lanes 0..8) and to the outputs (lanes 9..11); bpack
+    (B, R, K, 16) the hidden then output biases.  Unused lanes are 0.
+    """
+    wpack[:] = 0.0
+    bpack[:] = 0.0
+    for b in range(wt_ih.shape[0]):
+        for r in range(wt_ih.shape[1]):
+            for k in range(wt_ih.shape[2]):
+                for i in range(9):
+                    for j in range(7):
+                        wpack[b, r, k, j, i] = wt_ih[b, r, k, j, i]
+                    for m in range(9):
+                        wpack[b, r, k, 7 + m, i] = wt_hh[b, r, k, m, i]
+                    bpack[b, r, k, i] = b_h[b, r, k, i]
+                for q in range(3):
+                    for m in range(9):
+                        wpack[b, r, k, 7 + m, OUT_LANE + q] = wt_ho[b, r, k, m, q]
+                    bpack[b, r, k, OUT_LANE + q] = b_o[b, r, k, q]
+
+
+@intrinsic
+def _network_16(typingctx, state, state_at, wpack, w_at, bpack, b_at, obs, obs_at, table):
+    """Both synchronous steps of a 7-input, 9-hidden network (`network_action_9`) with every node in one lane of a
+    16-lane float32 vector: state[state_at:+16] holds hidden nodes 0..8 and outputs (lanes 9..11) before and
+    after; wpack, bpack rows from `pack_networks` at element offsets w_at, b_at; inputs obs[obs_at:+7].
+
+    Each lane does its node's operations of `network_action_9` in the same order: from 0, + weight * input for
+    the 7 inputs (hidden lanes only: output lanes restart from 0 after them), then + weight * hidden for the 9
+    hidden nodes of the previous step, then the sigmoid of sum + bias (`sigmoid_ir`).  IEEE vector arithmetic
+    is lane-wise and without fast-math LLVM neither fuses nor reorders it, so every node is bit-identical to
+    the scalar network; one vector operation per source replaces the separate hidden, node 8 and output chains.
+    Step 1's output lanes are not used (step 2 recomputes the outputs before anything reads them).
+    """
+    f4 = types.float32
+    if not (isinstance(state, types.Array) and state.dtype == f4 and state.layout == "C"
+            and isinstance(wpack, types.Array) and wpack.dtype == f4 and wpack.layout == "C"
+            and isinstance(bpack, types.Array) and bpack.dtype == f4 and bpack.layout == "C"
+            and isinstance(obs, types.Array) and obs.dtype == f4 and obs.layout == "C"
+            and isinstance(table, types.Array) and table.dtype == types.uint64):
+        return None
+    sig = types.void(state, types.intp, wpack, types.intp, bpack, types.intp, obs, types.intp, table)
+
+    def codegen(context, builder, signature, args):
+        i32, i64 = ir.IntType(32), ir.IntType(64)
+        vf = ir.VectorType(ir.FloatType(), LANES)
+        p_state, p_w, p_b, p_obs, p_tab = (context.make_array(signature.args[a])(context, builder, args[a]).data
+                                           for a in (0, 2, 4, 6, 8))
+        state_at, w_at, b_at, obs_at = args[1], args[3], args[5], args[7]
+
+        def ptr(p, at, k):
+            return builder.gep(p, [builder.add(at, ir.Constant(i64, k))], inbounds=True)
+
+        def row(p, at, k):
+            return builder.load(builder.bitcast(ptr(p, at, k), vf.as_pointer()), align=4)
+
+        def splat(x):
+            v = builder.insert_element(ir.Constant(vf, ir.Undefined), x, ir.Constant(i32, 0))
+            return builder.shuffle_vector(v, ir.Constant(vf, ir.Undefined),
+                                          ir.Constant(ir.VectorType(i32, LANES), [0] * LANES))
+
+        zero = ir.Constant(vf, [0.0] * LANES)
+        hidden_lanes = ir.Constant(ir.VectorType(ir.IntType(1), LANES),
+                                   [1 if i < OUT_LANE else 0 for i in range(LANES)])
+        inputs = [splat(builder.load(ptr(p_obs, obs_at, j))) for j in range(7)]
+        bias = row(p_b, b_at, 0)
+        s = row(p_state, state_at, 0)
+        for step in range(2):
+            acc = zero
+            for j in range(7):
+                acc = builder.fadd(acc, builder.fmul(row(p_w, w_at, LANES * j), inputs[j]))
+            if step == 1:
+                acc = builder.select(hidden_lanes, acc, zero)
+            for m in range(9):
+                hm = splat(builder.extract_element(s, ir.Constant(i32, m)))
+                acc = builder.fadd(acc, builder.fmul(row(p_w, w_at, LANES * (7 + m)), hm))
+            s = sigmoid_ir(builder, builder.fadd(acc, bias), p_tab)
+        builder.store(s, builder.bitcast(ptr(p_state, state_at, 0), vf.as_pointer()), align=4)
+        return context.get_dummy_value()
+
+    return sig, codegen
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def remembered_action_16(b, r, obs, rflag_signal, n_brains, wpack, bpack, state, brain, prev, memo_obs, memo):
+    """`remembered_action` for packed networks (`pack_networks`): the same memo, brain switch and results, the
+    two steps in `_network_16`.  state (B, R, 16) float32 holds hidden nodes 0..8 and outputs 9..11."""
+    if memo[r, 0] == 1 and memo[r, 1] == rflag_signal:
+        same = True
+        for j in range(7):
+            if obs[b, r, j] != memo_obs[r, j]:
+                same = False
+        if same:
+            return memo[r, 2]
+    for i in range(9):
+        prev[i] = state[b, r, i]
+    k = brain[b, r]
+    wanted = 1 if (n_brains == 2 and rflag_signal != 0) else 0
+    if wanted != k:  # switch brains (a cleared signal, in operator protocols, switches back)
+        brain[b, r] = wanted
+        for i in range(OUT_LANE + 3):
+            state[b, r, i] = 0.0
+    unit = (b * state.shape[1] + r) * n_brains + brain[b, r]
+    _network_16(state, (b * state.shape[1] + r) * LANES, wpack, unit * LANES * LANES, bpack, unit * LANES, obs,
+                (b * obs.shape[1] + r) * obs.shape[2], TABLE)
+    action = winner_take_all(state[b, r, OUT_LANE], state[b, r, OUT_LANE + 1], state[b, r, OUT_LANE + 2])
+    fixed = brain[b, r] == k
+    for i in range(9):
+        if state[b, r, i] != prev[i]:
+            fixed = False
+    for j in range(7):
         memo_obs[r, j] = obs[b, r, j]
     memo[r, 0] = 1 if fixed else 0
     memo[r, 1] = rflag_signal

@@ -156,45 +156,55 @@ def sigmoid_8(typingctx, dst, dst_at, src, src_at, bias, bias_at, table):
     sig = types.void(dst, types.intp, src, types.intp, bias, types.intp, table)
 
     def codegen(context, builder, signature, args):
-        f32, f64, i64, i32 = ir.FloatType(), ir.DoubleType(), ir.IntType(64), ir.IntType(32)
-        vf, vd, vi = ir.VectorType(f32, 8), ir.VectorType(f64, 8), ir.VectorType(i64, 8)
+        vf = ir.VectorType(ir.FloatType(), 8)
         p_dst, p_src, p_bias, p_tab = (context.make_array(signature.args[a])(context, builder, args[a]).data
                                        for a in (0, 2, 4, 6))
 
         def load8(ptr, at):
             return builder.load(builder.bitcast(builder.gep(ptr, [at], inbounds=True), vf.as_pointer()), align=4)
 
-        def splat(ty, value):
-            return ir.Constant(ty, [value] * 8)
-
-        fma = cgutils.get_or_insert_function(builder.module, ir.FunctionType(vd, [vd, vd, vd]), "llvm.fma.v8f64")
         x = builder.fadd(load8(p_src, args[3]), load8(p_bias, args[5]))
-        v = builder.fmul(splat(vf, float(-SIGMOID_SLOPE32)), x)
-        xd = builder.fpext(v, vd)
-        kd = builder.call(fma, [splat(vd, INV_LN2_N), xd, splat(vd, SHIFT)])
-        ki = builder.bitcast(kd, vi)
-        kd = builder.fsub(kd, splat(vd, SHIFT))
-        r = builder.call(fma, [splat(vd, INV_LN2_N), xd, builder.fsub(splat(vd, -0.0), kd)])
-        idx = builder.and_(ki, splat(vi, 31))
-        tab = ir.Constant(vi, ir.Undefined)
-        for lane in range(8):
-            j = builder.extract_element(idx, ir.Constant(i32, lane))
-            tab = builder.insert_element(tab, builder.load(builder.gep(p_tab, [j], inbounds=True)),
-                                         ir.Constant(i32, lane))
-        s = builder.bitcast(builder.add(tab, builder.shl(ki, splat(vi, 47))), vd)
-        z = builder.call(fma, [r, splat(vd, C0), splat(vd, C1)])
-        r2 = builder.fmul(r, r)
-        y = builder.call(fma, [r, splat(vd, C2), splat(vd, 1.0)])
-        y = builder.call(fma, [z, r2, y])
-        e = builder.fptrunc(builder.fmul(y, s), vf)
-        # the library's slow path (|v| >= 88, inf, NaN), as selects; lanes below 88 in magnitude keep e
-        e = builder.select(builder.fcmp_ordered("<", v, splat(vf, float(MAY_UNDERFLOW))), splat(vf, float(TINY)), e)
-        e = builder.select(builder.fcmp_ordered("<", v, splat(vf, float(UNDERFLOW))), splat(vf, 0.0), e)
-        e = builder.select(builder.fcmp_ordered(">", v, splat(vf, float(OVERFLOW))), splat(vf, math.inf), e)
-        e = builder.select(builder.fcmp_unordered("uno", v, v), builder.fadd(v, v), e)
-        out = builder.fdiv(splat(vf, 1.0), builder.fadd(splat(vf, 1.0), e))
+        out = sigmoid_ir(builder, x, p_tab)
         builder.store(out, builder.bitcast(builder.gep(p_dst, [args[1]], inbounds=True), vf.as_pointer()), align=4)
         return context.get_dummy_value()
 
     return sig, codegen
 
+
+def sigmoid_ir(builder: ir.IRBuilder, x: ir.Value, p_tab: ir.Value) -> ir.Value:
+    """LLVM IR of the network's sigmoid 1/(1 + expf(-4.9 x)) for a float32 vector x of any width, lane by lane:
+    `expf` above in double precision (the same IEEE operations and fused multiply-adds per lane, the table
+    read per lane) with the library's special cases as selects.  `p_tab` points to TABLE.  The one vector
+    definition of the sigmoid (`sigmoid_8`, the controller's network)."""
+    f32, f64, i64, i32 = ir.FloatType(), ir.DoubleType(), ir.IntType(64), ir.IntType(32)
+    width = x.type.count
+    vf, vd, vi = ir.VectorType(f32, width), ir.VectorType(f64, width), ir.VectorType(i64, width)
+
+    def splat(ty, value):
+        return ir.Constant(ty, [value] * width)
+
+    fma = cgutils.get_or_insert_function(builder.module, ir.FunctionType(vd, [vd, vd, vd]), f"llvm.fma.v{width}f64")
+    v = builder.fmul(splat(vf, float(-SIGMOID_SLOPE32)), x)
+    xd = builder.fpext(v, vd)
+    kd = builder.call(fma, [splat(vd, INV_LN2_N), xd, splat(vd, SHIFT)])
+    ki = builder.bitcast(kd, vi)
+    kd = builder.fsub(kd, splat(vd, SHIFT))
+    r = builder.call(fma, [splat(vd, INV_LN2_N), xd, builder.fsub(splat(vd, -0.0), kd)])
+    idx = builder.and_(ki, splat(vi, 31))
+    tab = ir.Constant(vi, ir.Undefined)
+    for lane in range(width):
+        j = builder.extract_element(idx, ir.Constant(i32, lane))
+        tab = builder.insert_element(tab, builder.load(builder.gep(p_tab, [j], inbounds=True)),
+                                     ir.Constant(i32, lane))
+    s = builder.bitcast(builder.add(tab, builder.shl(ki, splat(vi, 47))), vd)
+    z = builder.call(fma, [r, splat(vd, C0), splat(vd, C1)])
+    r2 = builder.fmul(r, r)
+    y = builder.call(fma, [r, splat(vd, C2), splat(vd, 1.0)])
+    y = builder.call(fma, [z, r2, y])
+    e = builder.fptrunc(builder.fmul(y, s), vf)
+    # the library's slow path (|v| >= 88, inf, NaN), as selects; lanes below 88 in magnitude keep e
+    e = builder.select(builder.fcmp_ordered("<", v, splat(vf, float(MAY_UNDERFLOW))), splat(vf, float(TINY)), e)
+    e = builder.select(builder.fcmp_ordered("<", v, splat(vf, float(UNDERFLOW))), splat(vf, 0.0), e)
+    e = builder.select(builder.fcmp_ordered(">", v, splat(vf, float(OVERFLOW))), splat(vf, math.inf), e)
+    e = builder.select(builder.fcmp_unordered("uno", v, v), builder.fadd(v, v), e)
+    return builder.fdiv(splat(vf, 1.0), builder.fadd(splat(vf, 1.0), e))

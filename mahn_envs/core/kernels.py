@@ -10,7 +10,7 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from .controller import remembered_action
+from .controller import LANES, OUT_LANE, is_size_9, pack_networks, remembered_action, remembered_action_16
 from .rng import CH_ACTION, uniform
 from .task import (
     E_TICK,
@@ -103,6 +103,18 @@ def run_controllers(pose, raw, obs, racc, rflag, goto, est, walls, boxes, dirs, 
     # per robot: cos, sin of the heading `at[r, 0]`; rays cast from (at[r, 1], at[r, 2]) with heading at[r, 3]
     trig_all = np.empty((n_ep, n_robots, 2), dtype=np.float64)
     at_all = np.full((n_ep, n_robots, 4), np.nan)
+    # Networks of the substrate's size run packed, every node in a lane of one vector (`_network_16`), their
+    # hidden nodes and outputs in `state`, copied from and back to `hid` and `out`.
+    size_9 = is_size_9(wt_ih)
+    n_brains = wt_ih.shape[2]
+    if size_9:
+        wpack = np.empty(wt_ih.shape[:3] + (LANES, LANES), dtype=np.float32)
+        bpack = np.empty(wt_ih.shape[:3] + (LANES,), dtype=np.float32)
+        pack_networks(wt_ih, wt_hh, wt_ho, b_h, b_o, wpack, bpack)
+    else:
+        wpack = np.zeros((1, 1, 1, LANES, LANES), dtype=np.float32)
+        bpack = np.zeros((1, 1, 1, LANES), dtype=np.float32)
+    state = np.zeros((n_ep, n_robots, LANES), dtype=np.float32)
     for b in prange(n_ep):
         others = others_all[b]
         cand = cand_all[b]
@@ -112,6 +124,12 @@ def run_controllers(pose, raw, obs, racc, rflag, goto, est, walls, boxes, dirs, 
         memo = memo_all[b]
         trig = trig_all[b]
         at = at_all[b]
+        if size_9:
+            for r in range(n_robots):
+                for i in range(9):
+                    state[b, r, i] = hid[b, r, i]
+                for q in range(3):
+                    state[b, r, OUT_LANE + q] = out[b, r, q]
         if record:
             for r in range(n_robots):
                 traj[b, 0, r, 0] = pose[b, r, X]
@@ -125,8 +143,12 @@ def run_controllers(pose, raw, obs, racc, rflag, goto, est, walls, boxes, dirs, 
                 # network), change this file too, or cached episodes keep running the old compiled code.
                 # The task's functions are inlined here (inline="always"): as calls, each one paid a reference
                 # count round trip per array argument, which cost more than half of the episode's time.
-                action = remembered_action(b, r, obs, rflag[b, r, F_SIGNAL], wt_ih, wt_hh, wt_ho, b_h, b_o, hid,
-                                           out, brain, tmp_h, prev, memo_obs, memo)
+                if size_9:
+                    action = remembered_action_16(b, r, obs, rflag[b, r, F_SIGNAL], n_brains, wpack, bpack, state,
+                                                  brain, prev, memo_obs, memo)
+                else:
+                    action = remembered_action(b, r, obs, rflag[b, r, F_SIGNAL], wt_ih, wt_hh, wt_ho, b_h, b_o,
+                                               hid, out, brain, tmp_h, prev, memo_obs, memo)
                 decide_robot(b, r, action, tick, pose, raw, params, seed, keys[b])
                 if record:
                     traj[b, tick, r, 3] = action
@@ -160,6 +182,12 @@ def run_controllers(pose, raw, obs, racc, rflag, goto, est, walls, boxes, dirs, 
                         at[r, 2] = y
                         at[r, 3] = h
                 encode_episode(b, tick + 1, raw, obs, rflag, params, seed, keys[b])
+        if size_9:
+            for r in range(n_robots):
+                for i in range(9):
+                    hid[b, r, i] = state[b, r, i]
+                for q in range(3):
+                    out[b, r, q] = state[b, r, OUT_LANE + q]
         fit, ok = team_fitness(b, pose, racc, rflag, goto, est, home)
         fitness[b] = fit
         solved[b] = ok

@@ -12,7 +12,16 @@ import pytest
 from numba import njit
 
 from mahn_envs.core import BatchSim, TaskParams, kernels
-from mahn_envs.core.controller import _sigmoid, network_action, transposed, winner_take_all
+from mahn_envs.core.controller import (
+    LANES,
+    OUT_LANE,
+    _sigmoid,
+    network_action,
+    pack_networks,
+    remembered_action_16,
+    transposed,
+    winner_take_all,
+)
 from mahn_envs.core.geometry import cast_rays, ray_circle, ray_wall, sensor_directions, wall_boxes
 from mahn_envs.maps import load_map
 
@@ -78,6 +87,25 @@ def reference_cast_rays(cx, cy, heading, dirs, max_range, walls, others, n_other
         out[j] = best
 
 
+@njit(error_model="numpy")
+def packed_network(b, r, obs, rflag_signal, wt_ih, wt_hh, wt_ho, b_h, b_o, hid, out, brain, tmp):
+    """`network_action` through the episode loop's packed path: `pack_networks`, then `remembered_action_16` with
+    an empty memo (so it always computes), its state copied from and back to hid and out."""
+    wpack = np.empty(wt_ih.shape[:3] + (LANES, LANES), np.float32)
+    bpack = np.empty(wt_ih.shape[:3] + (LANES,), np.float32)
+    pack_networks(wt_ih, wt_hh, wt_ho, b_h, b_o, wpack, bpack)
+    state = np.zeros((hid.shape[0], hid.shape[1], LANES), np.float32)
+    state[:, :, :9] = hid
+    state[:, :, OUT_LANE:OUT_LANE + 3] = out
+    memo_obs = np.zeros((hid.shape[1], 7), np.float32)
+    memo = np.zeros((hid.shape[1], 3), np.int64)
+    action = remembered_action_16(b, r, obs, rflag_signal, wt_ih.shape[2], wpack, bpack, state, brain,
+                                  np.zeros(9, np.float32), memo_obs, memo)
+    hid[:] = state[:, :, :9]
+    out[:] = state[:, :, OUT_LANE:OUT_LANE + 3]
+    return action
+
+
 def _run_networks(fn, weights, obs_seq, sig_seq):
     B, R = obs_seq.shape[1], obs_seq.shape[2]
     n_hidden = weights[1].shape[-1]
@@ -96,9 +124,10 @@ def _run_networks(fn, weights, obs_seq, sig_seq):
     return np.array(acts), np.array(hids), np.array(outs)
 
 
+@pytest.mark.parametrize("fast_network", [network_action, packed_network])
 @pytest.mark.parametrize("brains", [1, 2])
 @pytest.mark.parametrize("scale", [0.2, 1.5, 6.0])
-def test_network_matches_reference_bitwise(brains, scale):
+def test_network_matches_reference_bitwise(brains, scale, fast_network):
     rng = np.random.default_rng(brains * 10 + int(scale * 10))
     teams = [random_team(s, n_brains=brains, scale=scale) for s in range(6)]
     ctrl = type(teams[0])(*(np.stack([getattr(t, f) for t in teams]) for f in ("w_ih", "w_hh", "w_ho", "b_h", "b_o")))
@@ -110,20 +139,22 @@ def test_network_matches_reference_bitwise(brains, scale):
     sig_seq[60:] = 1
     sig_seq[90:100, :, 1] = 0  # an operator clearing one robot's signal switches its brain back
     obs_seq[:, :, :, 6] = sig_seq
-    fast = _run_networks(network_action, weights, obs_seq, sig_seq)
+    fast = _run_networks(fast_network, weights, obs_seq, sig_seq)
     ref = _run_networks(reference_network, weights, obs_seq, sig_seq)
     for a, b in zip(fast, ref):
         assert np.array_equal(a, b)
     assert len(np.unique(fast[0])) > 1  # the teams do act differently
 
 
-def test_ray_cast_matches_reference_bitwise():
+@pytest.mark.parametrize("n_rays", [6, 1, 8, 11])  # 1-8 rays run side by side in one vector, more one by one
+def test_ray_cast_matches_reference_bitwise(n_rays):
     rng = np.random.default_rng(3)
     plus = np.ascontiguousarray(load_map("plus").walls)
     random_walls = rng.uniform(-20, 60, (40, 4))
     random_walls[::4, 3] = random_walls[::4, 1]  # some horizontal
     random_walls[1::4, 2] = random_walls[1::4, 0]  # some vertical
-    dirs = sensor_directions([1.3398 - j * 0.53592 for j in range(6)])
+    dirs = sensor_directions([1.3398 - j * 0.53592 for j in range(6)] if n_rays == 6
+                             else list(rng.uniform(-math.pi, math.pi, n_rays)))
     for walls in (plus, np.ascontiguousarray(random_walls)):
         boxes = wall_boxes(walls)
         cand = np.zeros(walls.shape[0], np.int64)
@@ -134,13 +165,13 @@ def test_ray_cast_matches_reference_bitwise():
             h = rng.choice([rng.uniform(-7, 7), rng.integers(-4, 5) * math.pi / 2])  # axis-parallel rays too
             others = rng.uniform(-12, 12, (2, 2)) + [cx, cy]
             n_others = int(rng.integers(0, 3))
-            got = np.zeros(6)
-            want = np.zeros(6)
+            got = np.zeros(n_rays)
+            want = np.zeros(n_rays)
             cast_rays(cx, cy, h, dirs, 16.66, walls, boxes, others, n_others, 6.5, got, cand)
             reference_cast_rays(cx, cy, h, dirs, 16.66, walls, others, n_others, 6.5, want)
             assert np.array_equal(got, want), (cx, cy, h)
             hits += int(np.sum(got < 16.66))
-        assert hits > 1000
+        assert hits > 1000 * n_rays // 6
 
 
 @njit(error_model="numpy")
