@@ -8,12 +8,13 @@ calls an evaluator itself::
         fitness = evaluate_batch(pop.ask())   # list[Genome] -> array (population_size,)
         stats = pop.tell(fitness)             # reproduce; pop.ask() now returns the next generation
 
-``tell`` runs the original's pipeline (section 8 of the reference sheet) in this order: sort species by fitness,
-statistics and stagnation, target and elite sizes, drop species with target 0, asexual then sexual offspring (the
-innovation tables are cleared first), trim species to their elites, place offspring (parent species first), adjust
-the threshold and re-speciate fully if it moved or mean complexity changed by more than 5 %.  With
-``population_stagnation_generations`` > 0 (off in the original) a population whose best has not improved for more
-than that many generations gives its whole target to the two best species (NEAT 2002).
+``tell`` runs the original's generation (SharpNEAT 1.0, see ``docs/original-system.md``) as named steps, in this
+order: rank each species' members, record the best, update species stagnation, species target and elite sizes,
+drop species with target 0, make offspring (asexual, then sexual; the innovation tables are cleared first), trim
+species to their elites, place the offspring (parent species first), and adjust the threshold, re-speciating fully
+if it moved or mean complexity changed by more than 5 %.  With ``population_stagnation_generations`` > 0 (off in
+the original) a population whose best has not improved for more than that many generations gives its whole target
+to the two best species (NEAT 2002).
 
 Every random choice is drawn from one ``numpy.random.Generator`` (PCG64), species are processed in id order and
 the population size never changes, so a seed determines the whole run; :meth:`to_dict` captures the complete state
@@ -23,7 +24,7 @@ the population size never changes, so a seed determines the whole run; :meth:`to
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import asdict, dataclass
 from typing import Any
 
@@ -32,7 +33,14 @@ import numpy as np
 from .genome import Genome
 from .initial import initial_population
 from .innovation import InnovationTracker
-from .reproduction import elite_sizes, make_offspring, stagnation_adjusted_means, target_sizes, top_two_targets
+from .reproduction import (
+    Offspring,
+    elite_sizes,
+    make_offspring,
+    stagnation_adjusted_means,
+    target_sizes,
+    top_two_targets,
+)
 from .settings import NeatSettings, with_legacy_values
 from .speciation import RepresentativeIndex, Species, ThresholdController, first_compatible, order_keys, speciate_all
 
@@ -40,6 +48,18 @@ __all__ = ["Population", "GenerationStats"]
 
 FORMAT = "mahn-neat-population"
 VERSION = 1
+
+
+@dataclass
+class _NextGeneration:
+    """The generation :meth:`Population.tell` is building: genomes with their birth generation and parents'
+    species ids (aligned), its species, and how many genomes at the front are elites (the rest are offspring)."""
+
+    genomes: list[Genome]
+    born: list[int]
+    parents: list[tuple[int, ...]]
+    species: list[Species]
+    n_elite: int = 0
 
 
 @dataclass(frozen=True)
@@ -138,35 +158,69 @@ class Population:
         return float(np.mean([g.complexity for g in genomes]))
 
     # ---------------------------------------------------------------------------------------------- loop
-    def evolve_one_generation(self, evaluate: Callable[[list[Genome]], np.ndarray]) -> GenerationStats:
-        """Convenience: ``tell(evaluate(ask()))``."""
-        return self.tell(evaluate(self.ask()))
-
     def tell(self, fitnesses: Sequence[float] | np.ndarray) -> GenerationStats:
-        """Give the fitness of every genome of :meth:`ask` (same order); produce the next generation."""
-        s = self.settings
+        """Give the fitness of every genome of :meth:`ask` (same order); produce the next generation.
+
+        One generation is the sequence of steps below, in the original's order; every random draw happens in
+        :meth:`_pardon_champion` (sticky stagnation only), :func:`make_offspring` and :meth:`_place_offspring`,
+        in that order, so the order of the steps is part of a run's identity.
+        """
+        f = self._floored_fitness(fitnesses)
+        gen = self.generation
+        evaluated = self._genomes
+        self._rank_members(f)
+        best = self._record_best(f, gen)
+        champion = self._update_species_stagnation(f, best, gen)
+        targets = self._species_targets(f, champion, gen)
+        elites = elite_sizes(targets, np.array([len(sp.members) for sp in self._species], dtype=np.int64),
+                             champion, self.settings.elitism_proportion)
+        species, targets, elites = self._drop_empty_species(targets, elites)
+        offspring = make_offspring(species, evaluated, f, targets, elites, self.rng, self.settings, self.tracker)
+        nxt = self._trim_to_elites(species, elites, offspring, gen)
+        self._place_offspring(nxt, offspring, gen)
+        respeciated = self._adjust_threshold(nxt, gen)
+        stats = self._stats(gen, f, best, evaluated, respeciated)
+        self._genomes, self._born, self._parents, self._species = nxt.genomes, nxt.born, nxt.parents, nxt.species
+        self.generation = gen + 1
+        return stats
+
+    # ---------------------------------------------------------------------------------------------- tell's steps
+    def _floored_fitness(self, fitnesses: Sequence[float] | np.ndarray) -> np.ndarray:
+        """The fitness values checked (one finite value per genome) and raised to ``fitness_floor``: the
+        roulettes of selection need every fitness > 0."""
+        n = self.settings.population_size
         f = np.asarray(fitnesses, dtype=np.float64)
-        n = s.population_size
         if f.shape != (n,):
             raise ValueError(f"Population.tell: expected {n} fitness values, got shape {f.shape}")
         if not np.all(np.isfinite(f)):
             raise ValueError("Population.tell: fitness values must be finite")
-        f = np.maximum(f, s.fitness_floor)
-        gen = self.generation
-        genomes = self._genomes
+        return np.maximum(f, self.settings.fitness_floor)
 
-        # 7. sort species best first (equal fitness: see NeatSettings.tie_break), statistics, stagnation
+    def _rank_members(self, f: np.ndarray) -> None:
+        """Sort every species best first: elites, representatives and parent pools are taken from the front.
+        Equal fitness is ordered by ``tie_break`` (youngest first lets equally fit offspring replace old elites on
+        a plateau), then by index, so the order never depends on the sort algorithm."""
         born = self._born
         for sp in self._species:
-            if s.tie_break == "youngest":
+            if self.settings.tie_break == "youngest":
                 sp.members.sort(key=lambda i: (-f[i], -born[i], i))
             else:
                 sp.members.sort(key=lambda i: (-f[i], i))
+
+    def _record_best(self, f: np.ndarray, gen: int) -> int:
+        """The index of this generation's best genome; it becomes the best ever if it beats it (which also restarts
+        the population's stagnation clock)."""
         best = int(np.argmax(f))
         if f[best] > self.best_fitness:
             self.best_fitness = float(f[best])
-            self.best_genome = genomes[best]
+            self.best_genome = self._genomes[best]
             self.last_improvement = gen
+        return best
+
+    def _update_species_stagnation(self, f: np.ndarray, best: int, gen: int) -> int:
+        """Each species' best and improvement clock; with the "sticky" rule flag species stagnant for good (and
+        pardon the champion species).  Returns the champion species' position: it is exempt from penalties and
+        always reproduces, so the best genome is never lost."""
         champion = 0
         flagged = False
         for k, sp in enumerate(self._species):
@@ -174,108 +228,118 @@ class Population:
             if top > sp.best_fitness:
                 sp.best_fitness = top
                 sp.last_improvement = gen
-            elif s.stagnation_rule == "sticky" and gen - sp.last_improvement > s.stagnation_generations:
+            elif self.settings.stagnation_rule == "sticky" and gen - sp.last_improvement > \
+                    self.settings.stagnation_generations:
                 sp.culled = True
                 flagged = True
             if best in sp.members:
                 champion = k
         if flagged:
             self._pardon_champion(f, float(f[best]), gen)
-        complexities = np.array([g.complexity for g in genomes])
-        n_species = len(self._species)
+        return champion
 
-        means = stagnation_adjusted_means(self._species, f, champion, gen, s)
-        ps = s.population_stagnation_generations
-        if ps > 0 and gen - self.last_improvement > ps:
-            # NEAT 2002: refocus on the two best species; their stagnation clocks and the population's restart
-            tops = np.array([float(f[sp.members[0]]) for sp in self._species])
-            targets = top_two_targets(tops, champion, n)
-            for k in np.flatnonzero(targets > 0).tolist():
-                self._species[k].last_improvement = gen
-            self.last_improvement = gen
-        else:
-            targets = target_sizes(means, champion, n)
-        sizes = np.array([len(sp.members) for sp in self._species], dtype=np.int64)
-        elites = elite_sizes(targets, sizes, champion, s.elitism_proportion)
+    def _species_targets(self, f: np.ndarray, champion: int, gen: int) -> np.ndarray:
+        """How many genomes each species has in the next generation: proportional to its (stagnation-penalised)
+        mean fitness; or, when the whole population stagnated (``population_stagnation_generations``, NEAT
+        2002), half each for the two best species, whose clocks and the population's then restart."""
+        n = self.settings.population_size
+        means = stagnation_adjusted_means(self._species, f, champion, gen, self.settings)
+        ps = self.settings.population_stagnation_generations
+        if not (ps > 0 and gen - self.last_improvement > ps):
+            return target_sizes(means, champion, n)
+        tops = np.array([float(f[sp.members[0]]) for sp in self._species])
+        targets = top_two_targets(tops, champion, n)
+        for k in np.flatnonzero(targets > 0).tolist():
+            self._species[k].last_improvement = gen
+        self.last_improvement = gen
+        return targets
 
-        # 1. drop species with target 0
+    def _drop_empty_species(self, targets: np.ndarray, elites: np.ndarray
+                            ) -> tuple[list[Species], np.ndarray, np.ndarray]:
+        """The species that reproduce (target > 0) with their targets and elite sizes: a species with target 0
+        dies out and gives no parents."""
         keep = np.flatnonzero(targets > 0)
-        species = [self._species[k] for k in keep]
-        targets, elites = targets[keep], elites[keep]
+        return [self._species[k] for k in keep], targets[keep], elites[keep]
 
-        # 2-3. offspring
-        offspring = make_offspring(species, genomes, f, targets, elites, self.rng, s, self.tracker)
-
-        # 4. trim to elites; the new list is the elites (species order, best first), then offspring
-        new_genomes: list[Genome] = []
-        new_born: list[int] = []
-        new_parents: list[tuple[int, ...]] = []
-        new_species: list[Species] = []
+    def _trim_to_elites(self, species: list[Species], elites: np.ndarray, offspring: list[Offspring],
+                        gen: int) -> _NextGeneration:
+        """The next generation's genomes: each species' elites (species order, best first), then the offspring.
+        Only the trimmed species survive, each keeping its id, best and clocks; offspring are placed later."""
+        nxt = _NextGeneration([], [], [], [])
+        born, parents = self._born, self._parents
         for sp, e in zip(species, elites.tolist()):
             if e == 0:
                 continue
-            start = len(new_genomes)
-            new_genomes.extend(genomes[i] for i in sp.members[:e])
-            new_born.extend(born[i] for i in sp.members[:e])
-            new_parents.extend(self._parents[i] for i in sp.members[:e])
-            new_species.append(sp.successor(list(range(start, start + e))))
-        n_elite = len(new_genomes)
-        new_genomes.extend(o.genome for o in offspring)
-        new_born.extend([gen + 1] * len(offspring))
-        new_parents.extend(tuple(o.parent_species) for o in offspring)
-        assert len(new_genomes) == n, (len(new_genomes), n)
+            start = len(nxt.genomes)
+            nxt.genomes.extend(self._genomes[i] for i in sp.members[:e])
+            nxt.born.extend(born[i] for i in sp.members[:e])
+            nxt.parents.extend(parents[i] for i in sp.members[:e])
+            nxt.species.append(sp.successor(list(range(start, start + e))))
+        nxt.n_elite = len(nxt.genomes)
+        nxt.genomes.extend(o.genome for o in offspring)
+        nxt.born.extend([gen + 1] * len(offspring))
+        nxt.parents.extend(tuple(o.parent_species) for o in offspring)
+        assert len(nxt.genomes) == self.settings.population_size, (len(nxt.genomes), self.settings.population_size)
+        return nxt
 
-        # 5. place offspring
-        index = RepresentativeIndex(new_genomes, s)
+    def _place_offspring(self, nxt: _NextGeneration, offspring: list[Offspring], gen: int) -> None:
+        """Put each offspring into the first compatible species (its parents' species first, then the species
+        order), or found a new species with it.  Representatives are each species' best elite (or its founder)."""
+        index = RepresentativeIndex(nxt.genomes, self.settings)
         row_of: dict[int, int] = {}
-        for sp in new_species:
-            row_of[sp.id] = index.add(new_genomes[sp.members[0]])
+        for sp in nxt.species:
+            row_of[sp.id] = index.add(nxt.genomes[sp.members[0]])
         salt = self._order_salt
-        keys = None if salt is None else list(order_keys([sp.id for sp in new_species], salt))
+        keys = None if salt is None else list(order_keys([sp.id for sp in nxt.species], salt))
         thr = self._threshold.threshold
         for j, o in enumerate(offspring):
-            i = n_elite + j
+            i = nxt.n_elite + j
             d = index.distances(o.genome)
             r = first_compatible(d, thr, [row_of.get(pid, -1) for pid in o.parent_species],
                                  None if keys is None else np.asarray(keys, dtype=np.uint64))
             if r >= 0:
-                new_species[r].members.append(i)
+                nxt.species[r].members.append(i)
             else:
                 sp = Species(self._next_species_id, [i], gen + 1, -math.inf, gen + 1)
                 self._next_species_id += 1
                 row_of[sp.id] = index.add(o.genome)
-                new_species.append(sp)
+                nxt.species.append(sp)
                 if keys is not None:
                     assert salt is not None  # keys exist only when the salt does (set together above)
                     keys.append(order_keys([sp.id], salt)[0])
 
-        # 6. threshold and full re-speciation
-        changed = self._threshold.adjust(len(new_species), s)
-        cplx = self._mean_complexity(new_genomes)
+    def _adjust_threshold(self, nxt: _NextGeneration, gen: int) -> bool:
+        """Steer the compatibility threshold towards the target species count; if it moved, or mean complexity
+        drifted by more than ``respeciation_complexity_change`` since the last full re-speciation, re-speciate the
+        next generation from scratch (placement alone would keep stale species).  Returns whether it did."""
+        s = self.settings
+        changed = self._threshold.adjust(len(nxt.species), s)
+        cplx = self._mean_complexity(nxt.genomes)
         drift = abs(cplx - self._ref_complexity) > s.respeciation_complexity_change * self._ref_complexity
-        if changed or drift:
-            new_species, self._next_species_id = speciate_all(
-                new_genomes, self._threshold.threshold, s, new_species, gen + 1, self._next_species_id,
-                new_parents if s.respeciate_parents_first else (), order_salt=self._order_salt,
-            )
-            self._ref_complexity = cplx
+        if not (changed or drift):
+            return False
+        nxt.species, self._next_species_id = speciate_all(
+            nxt.genomes, self._threshold.threshold, s, nxt.species, gen + 1, self._next_species_id,
+            nxt.parents if s.respeciate_parents_first else (), order_salt=self._order_salt,
+        )
+        self._ref_complexity = cplx
+        return True
 
-        self._genomes = new_genomes
-        self._born = new_born
-        self._parents = new_parents
-        self._species = new_species
-        self.generation = gen + 1
+    def _stats(self, gen: int, f: np.ndarray, best: int, evaluated: list[Genome],
+               respeciated: bool) -> GenerationStats:
+        """The evaluated generation's statistics (species as evaluated; threshold as adjusted for the next)."""
+        complexities = np.array([g.complexity for g in evaluated])
         return GenerationStats(
             generation=gen,
             best_fitness=float(f[best]),
             mean_fitness=float(np.mean(f)),
             best_ever=self.best_fitness,
-            n_species=n_species,
+            n_species=len(self._species),
             threshold=self._threshold.threshold,
             mean_complexity=float(np.mean(complexities)),
             max_complexity=int(np.max(complexities)),
-            mean_hidden=float(np.mean([g.n_hidden for g in genomes])),
-            respeciated=bool(changed or drift),
+            mean_hidden=float(np.mean([g.n_hidden for g in evaluated])),
+            respeciated=respeciated,
         )
 
     def _pardon_champion(self, f: np.ndarray, best: float, gen: int) -> None:
