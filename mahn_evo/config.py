@@ -77,7 +77,7 @@ class TrainConfig:
         if self.cppn_activation == "relax" and not self.evaluate_modules:
             raise ValueError("cppn_activation 'relax' always evaluates the Multiply modules (as the original's "
                              "MultipleSteps does): it cannot be combined with evaluate_modules = false")
-        if self.neat.evaluate_modules:  # a NEAT-level leftover: the trainer reads the top-level flag only
+        if self.neat.cppn.evaluate_modules:  # a NEAT-level leftover: the trainer reads the top-level flag only
             raise ValueError("set evaluate_modules at the top level of the configuration, not under `neat`")
         for name in ("generations", "episodes", "checkpoint_every"):
             v = getattr(self, name)
@@ -134,13 +134,9 @@ class TrainConfig:
         neat = self.neat
         if "pop" in changes:
             pop = changes.pop("pop")
-            neat = neat.replace(population_size=pop, species_count_min=None, species_count_max=None) \
-                if _has_species_fields(neat) else neat.replace(population_size=pop)
+            # the species count range follows the population size again (a range set for another size is stale)
+            neat = neat.replace(population_size=pop, species_count_min=None, species_count_max=None)
         return replace(self, neat=neat, **changes)
-
-
-def _has_species_fields(neat: NeatSettings) -> bool:
-    return {"species_count_min", "species_count_max"} <= {f.name for f in fields(neat)}
 
 
 def load_config_file(path: str | Path, base: TrainConfig | None = None) -> TrainConfig:

@@ -235,9 +235,10 @@ class Trainer:
         """Write the log, checkpoint, summary and fitness plot for what has been run so far."""
         self._write_log()
         self._checkpoint()
+        pop = self.config.neat.reproduction.population_size
         summary = {"mode": self.config.mode, "seed": self.config.seed, "init": self.config.init,
                    "map": self.config.map, "generations": self.generation,
-                   "population": self.config.neat.population_size,
+                   "population": pop,
                    "best_fitness": None if not np.isfinite(self.best_fitness) else self.best_fitness,
                    "solved": self.first_solved is not None, "first_solved_generation": self.first_solved,
                    "evaluations": self.rows[-1][1] if self.rows else 0, "wall_seconds": round(self.wall, 3)}
@@ -245,7 +246,7 @@ class Trainer:
         from .plots import fitness_curve
 
         fitness_curve(self.out / "log.csv", self.out / "fitness.png",
-                      title=f"{self.config.mode}, seed {self.config.seed}, pop {self.config.neat.population_size}")
+                      title=f"{self.config.mode}, seed {self.config.seed}, pop {pop}")
         return summary
 
 

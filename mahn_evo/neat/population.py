@@ -93,9 +93,9 @@ class Population:
     ) -> None:
         """Start from ``genomes`` (usually from :func:`initial_population`); they are speciated at the initial
         threshold.  ``rng`` must be the run's only generator (it is advanced by every later step)."""
-        if len(genomes) != settings.population_size:
+        if len(genomes) != settings.reproduction.population_size:
             raise ValueError(
-                f"Population: got {len(genomes)} genomes for population_size {settings.population_size}"
+                f"Population: got {len(genomes)} genomes for population_size {settings.reproduction.population_size}"
             )
         self.settings = settings
         self.rng = rng
@@ -106,9 +106,10 @@ class Population:
         self._born: list[int] = [0] * len(self._genomes)
         #: Species ids of each genome's parents (empty for the initial genomes), for re-speciation.
         self._parents: list[tuple[int, ...]] = [()] * len(self._genomes)
-        self._threshold = ThresholdController(settings.initial_compatibility_threshold)
+        self._threshold = ThresholdController(settings.speciation.initial_compatibility_threshold)
         #: Salt of the "random" species order (drawn only in that mode, so other runs keep their random stream).
-        self._order_salt: int | None = int(rng.integers(0, 2**63)) if settings.species_order == "random" else None
+        self._order_salt: int | None = \
+            int(rng.integers(0, 2**63)) if settings.speciation.species_order == "random" else None
         self._species, self._next_species_id = speciate_all(
             self._genomes, self._threshold.threshold, settings, (), 0, 0, order_salt=self._order_salt
         )
@@ -173,7 +174,7 @@ class Population:
         champion = self._update_species_stagnation(f, best, gen)
         targets = self._species_targets(f, champion, gen)
         elites = elite_sizes(targets, np.array([len(sp.members) for sp in self._species], dtype=np.int64),
-                             champion, self.settings.elitism_proportion)
+                             champion, self.settings.selection.elitism_proportion)
         species, targets, elites = self._drop_empty_species(targets, elites)
         offspring = make_offspring(species, evaluated, f, targets, elites, self.rng, self.settings, self.tracker)
         nxt = self._trim_to_elites(species, elites, offspring, gen)
@@ -188,13 +189,13 @@ class Population:
     def _floored_fitness(self, fitnesses: Sequence[float] | np.ndarray) -> np.ndarray:
         """The fitness values checked (one finite value per genome) and raised to ``fitness_floor``: the
         roulettes of selection need every fitness > 0."""
-        n = self.settings.population_size
+        n = self.settings.reproduction.population_size
         f = np.asarray(fitnesses, dtype=np.float64)
         if f.shape != (n,):
             raise ValueError(f"Population.tell: expected {n} fitness values, got shape {f.shape}")
         if not np.all(np.isfinite(f)):
             raise ValueError("Population.tell: fitness values must be finite")
-        return np.maximum(f, self.settings.fitness_floor)
+        return np.maximum(f, self.settings.selection.fitness_floor)
 
     def _rank_members(self, f: np.ndarray) -> None:
         """Sort every species best first: elites, representatives and parent pools are taken from the front.
@@ -202,7 +203,7 @@ class Population:
         a plateau), then by index, so the order never depends on the sort algorithm."""
         born = self._born
         for sp in self._species:
-            if self.settings.tie_break == "youngest":
+            if self.settings.selection.tie_break == "youngest":
                 sp.members.sort(key=lambda i: (-f[i], -born[i], i))
             else:
                 sp.members.sort(key=lambda i: (-f[i], i))
@@ -228,8 +229,8 @@ class Population:
             if top > sp.best_fitness:
                 sp.best_fitness = top
                 sp.last_improvement = gen
-            elif self.settings.stagnation_rule == "sticky" and gen - sp.last_improvement > \
-                    self.settings.stagnation_generations:
+            elif self.settings.selection.stagnation_rule == "sticky" and gen - sp.last_improvement > \
+                    self.settings.selection.stagnation_generations:
                 sp.culled = True
                 flagged = True
             if best in sp.members:
@@ -242,9 +243,9 @@ class Population:
         """How many genomes each species has in the next generation: proportional to its (stagnation-penalised)
         mean fitness; or, when the whole population stagnated (``population_stagnation_generations``, NEAT
         2002), half each for the two best species, whose clocks and the population's then restart."""
-        n = self.settings.population_size
+        n = self.settings.reproduction.population_size
         means = stagnation_adjusted_means(self._species, f, champion, gen, self.settings)
-        ps = self.settings.population_stagnation_generations
+        ps = self.settings.selection.population_stagnation_generations
         if not (ps > 0 and gen - self.last_improvement > ps):
             return target_sizes(means, champion, n)
         tops = np.array([float(f[sp.members[0]]) for sp in self._species])
@@ -279,7 +280,8 @@ class Population:
         nxt.genomes.extend(o.genome for o in offspring)
         nxt.born.extend([gen + 1] * len(offspring))
         nxt.parents.extend(tuple(o.parent_species) for o in offspring)
-        assert len(nxt.genomes) == self.settings.population_size, (len(nxt.genomes), self.settings.population_size)
+        n = self.settings.reproduction.population_size
+        assert len(nxt.genomes) == n, (len(nxt.genomes), n)
         return nxt
 
     def _place_offspring(self, nxt: _NextGeneration, offspring: list[Offspring], gen: int) -> None:
@@ -315,12 +317,12 @@ class Population:
         s = self.settings
         changed = self._threshold.adjust(len(nxt.species), s)
         cplx = self._mean_complexity(nxt.genomes)
-        drift = abs(cplx - self._ref_complexity) > s.respeciation_complexity_change * self._ref_complexity
+        drift = abs(cplx - self._ref_complexity) > s.speciation.respeciation_complexity_change * self._ref_complexity
         if not (changed or drift):
             return False
         nxt.species, self._next_species_id = speciate_all(
             nxt.genomes, self._threshold.threshold, s, nxt.species, gen + 1, self._next_species_id,
-            nxt.parents if s.respeciate_parents_first else (), order_salt=self._order_salt,
+            nxt.parents if s.speciation.respeciate_parents_first else (), order_salt=self._order_salt,
         )
         self._ref_complexity = cplx
         return True
@@ -392,20 +394,20 @@ class Population:
         self.settings = settings
         self.generation = int(data["generation"])
         self._genomes = [Genome.from_dict(g) for g in data["genomes"]]
-        if len(self._genomes) != settings.population_size:
+        if len(self._genomes) != settings.reproduction.population_size:
             raise ValueError("Population.from_dict: genome count does not match population_size")
         born = data.get("born")
         if born is None:  # written before genome ages were kept: only the "oldest" rule can continue it exactly
-            if settings.tie_break != "oldest":
+            if settings.selection.tie_break != "oldest":
                 raise ValueError("Population.from_dict: this state has no genome ages, so it cannot continue with "
-                                 f"tie_break {settings.tie_break!r}")
+                                 f"tie_break {settings.selection.tie_break!r}")
             born = [0] * len(self._genomes)
         if len(born) != len(self._genomes) or not all(isinstance(b, int) and 0 <= b <= self.generation for b in born):
             raise ValueError("Population.from_dict: 'born' must hold one generation (0..generation) per genome")
         self._born = list(born)
         parents = data.get("parents")
         if parents is None:  # written before parents were kept: only the old re-speciation can continue it
-            if settings.respeciate_parents_first:
+            if settings.speciation.respeciate_parents_first:
                 raise ValueError("Population.from_dict: this state has no parent species, so it cannot continue "
                                  "with respeciate_parents_first")
             parents = [[]] * len(self._genomes)
@@ -428,9 +430,10 @@ class Population:
         self.best_fitness = -math.inf if bf is None else float(bf)
         self.last_improvement = int(data.get("last_improvement", 0))  # absent in checkpoints of older versions
         salt = data.get("species_order_salt")
-        if (salt is None) != (settings.species_order != "random") or not (salt is None or isinstance(salt, int)):
+        order = settings.speciation.species_order
+        if (salt is None) != (order != "random") or not (salt is None or isinstance(salt, int)):
             raise ValueError("Population.from_dict: 'species_order_salt' must be an integer exactly when "
-                             f"species_order is 'random' (species_order {settings.species_order!r}, salt {salt!r})")
+                             f"species_order is 'random' (species_order {order!r}, salt {salt!r})")
         self._order_salt = salt
         return self
 
