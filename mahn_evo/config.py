@@ -17,7 +17,7 @@ from mahn_envs.core.rng import check_seed
 
 from .cppn import CPPN_ACTIVATIONS
 from .evaluator import AGGREGATES, NOISE_DRAWS
-from .neat.settings import NeatSettings, with_legacy_values
+from .neat.settings import NeatSettings
 from .substrate import MODES
 
 if sys.version_info >= (3, 11):
@@ -114,10 +114,9 @@ class TrainConfig:
 
     @classmethod
     def from_saved(cls, data: Mapping[str, Any]) -> TrainConfig:
-        """A configuration a run saved (config.json, checkpoint), read with the values it was run with: settings
-        whose default changed since are filled with their old value (see neat.settings.LEGACY_VALUES)."""
-        data = {k: v for k, v in data.items() if k not in ("kind", "version")}
-        return cls.from_mapping({**data, "neat": with_legacy_values(data.get("neat", {}))})
+        """A configuration a run saved (config.json, a checkpoint's), as read by mahn_evo.files, which upgraded it
+        to the current format (mahn_evo.migrate) so it holds the values the run was made with."""
+        return cls.from_mapping({k: v for k, v in data.items() if k not in ("kind", "version")})
 
     def with_noise(self, preset: str) -> TrainConfig:
         """This configuration with the task noise of a named preset (see mahn_evo.evaluate.NOISE_PRESETS)."""

@@ -16,7 +16,8 @@ from mahn_envs.core.rng import check_seed
 
 from ..config import INITS, TrainConfig
 from ..files import atomic_write_json, read_versioned_json, versioned
-from ..neat.settings import LEGACY_VALUES, NeatSettings, with_legacy_values
+from ..migrate import V1_CHANGED_NEAT_DEFAULTS
+from ..neat.settings import NeatSettings
 from ..substrate import MODES
 
 PLAN_FILE = "experiment.json"
@@ -52,7 +53,8 @@ class ExperimentPlan:
     def __post_init__(self) -> None:
         object.__setattr__(self, "modes", tuple(self.modes))
         # the plan names the NEAT rules whose default changed, so an experiment.json says which ones its runs used
-        object.__setattr__(self, "neat", {**{k: getattr(NeatSettings(), k) for k in LEGACY_VALUES}, **self.neat})
+        object.__setattr__(self, "neat", {**{k: getattr(NeatSettings(), k) for k in V1_CHANGED_NEAT_DEFAULTS},
+                                               **self.neat})
         bad = [m for m in self.modes if m not in MODES]
         if bad or not self.modes or len(set(self.modes)) != len(self.modes):
             raise ValueError(f"modes must be distinct values of {MODES}, got {list(self.modes)}")
@@ -114,9 +116,7 @@ class ExperimentPlan:
 
     @classmethod
     def load(cls, out: str | Path) -> ExperimentPlan:
-        data = read_versioned_json(Path(out) / PLAN_FILE, "experiment")
-        # a plan saved before these NEAT rules were recorded ran with the old ones (see LEGACY_VALUES)
-        return cls.from_mapping({**data, "neat": with_legacy_values(data.get("neat", {}))})
+        return cls.from_mapping(read_versioned_json(Path(out) / PLAN_FILE, "experiment"))
 
     def save_or_check(self, out: str | Path) -> None:
         """Write experiment.json, or refuse if the folder holds an experiment with another plan."""

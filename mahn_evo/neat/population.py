@@ -30,6 +30,7 @@ from typing import Any
 
 import numpy as np
 
+from ..migrate import FORMAT_VERSION, POPULATION_FORMAT, upgrade_population
 from .genome import Genome
 from .initial import initial_population
 from .innovation import InnovationTracker
@@ -41,13 +42,12 @@ from .reproduction import (
     target_sizes,
     top_two_targets,
 )
-from .settings import NeatSettings, with_legacy_values
+from .settings import NeatSettings
 from .speciation import RepresentativeIndex, Species, ThresholdController, first_compatible, order_keys, speciate_all
 
 __all__ = ["Population", "GenerationStats"]
 
-FORMAT = "mahn-neat-population"
-VERSION = 1
+FORMAT = POPULATION_FORMAT
 
 
 @dataclass
@@ -364,7 +364,7 @@ class Population:
         """The complete state as plain JSON-able data (no pickle): resuming from it is bit-identical."""
         return {
             "format": FORMAT,
-            "version": VERSION,
+            "version": FORMAT_VERSION,
             "settings": self.settings.to_dict(),
             "generation": self.generation,
             "genomes": [g.to_dict() for g in self._genomes],
@@ -384,33 +384,26 @@ class Population:
 
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> Population:
-        """Restore a population saved by :meth:`to_dict` (e.g. after ``json.loads``)."""
+        """Restore a population saved by :meth:`to_dict` (e.g. after ``json.loads``); a state of an older format
+        version is upgraded first (mahn_evo.migrate)."""
         if data.get("format") != FORMAT:
             raise ValueError(f"Population.from_dict: not a {FORMAT} document (format={data.get('format')!r})")
-        if data.get("version") != VERSION:
-            raise ValueError(f"Population.from_dict: unsupported version {data.get('version')!r}")
-        settings = NeatSettings.from_mapping(with_legacy_values(data["settings"]))
+        data = upgrade_population(data, "Population.from_dict")
+        missing = sorted({"born", "parents", "last_improvement"} - set(data))
+        if missing:
+            raise ValueError(f"Population.from_dict: missing field(s) {missing}")
+        settings = NeatSettings.from_mapping(data["settings"])
         self = cls.__new__(cls)
         self.settings = settings
         self.generation = int(data["generation"])
         self._genomes = [Genome.from_dict(g) for g in data["genomes"]]
         if len(self._genomes) != settings.reproduction.population_size:
             raise ValueError("Population.from_dict: genome count does not match population_size")
-        born = data.get("born")
-        if born is None:  # written before genome ages were kept: only the "oldest" rule can continue it exactly
-            if settings.selection.tie_break != "oldest":
-                raise ValueError("Population.from_dict: this state has no genome ages, so it cannot continue with "
-                                 f"tie_break {settings.selection.tie_break!r}")
-            born = [0] * len(self._genomes)
+        born = data["born"]
         if len(born) != len(self._genomes) or not all(isinstance(b, int) and 0 <= b <= self.generation for b in born):
             raise ValueError("Population.from_dict: 'born' must hold one generation (0..generation) per genome")
         self._born = list(born)
-        parents = data.get("parents")
-        if parents is None:  # written before parents were kept: only the old re-speciation can continue it
-            if settings.speciation.respeciate_parents_first:
-                raise ValueError("Population.from_dict: this state has no parent species, so it cannot continue "
-                                 "with respeciate_parents_first")
-            parents = [[]] * len(self._genomes)
+        parents = data["parents"]
         if len(parents) != len(self._genomes) or not all(
                 isinstance(p, list) and all(isinstance(q, int) for q in p) for p in parents):
             raise ValueError("Population.from_dict: 'parents' must hold a list of species ids per genome")
@@ -428,7 +421,7 @@ class Population:
         self.best_genome = None if bg is None else Genome.from_dict(bg)
         bf = data.get("best_fitness")
         self.best_fitness = -math.inf if bf is None else float(bf)
-        self.last_improvement = int(data.get("last_improvement", 0))  # absent in checkpoints of older versions
+        self.last_improvement = int(data["last_improvement"])
         salt = data.get("species_order_salt")
         order = settings.speciation.species_order
         if (salt is None) != (order != "random") or not (salt is None or isinstance(salt, int)):

@@ -334,19 +334,12 @@ class NeatSettings:
         return lo, hi
 
     def to_dict(self) -> dict[str, Any]:
-        """The flat table: a plain JSON-able dict of the settings (tuples become lists).
-
-        Fields added after the first release (:data:`LATER_FIELDS`) are written only when they differ from their
-        default, so a configuration or checkpoint written before they existed still compares equal to one written
-        now with the same behaviour (the trainer refuses to resume a run whose configuration differs).
-        """
+        """The flat table: a plain JSON-able dict of every setting (tuples become lists)."""
         out: dict[str, Any] = {}
         for concern in CONCERNS:
             record = getattr(self, concern)
             for f in dataclasses.fields(record):
                 v = getattr(record, f.name)
-                if f.name in LATER_FIELDS and v == f.default:
-                    continue
                 out[f.name] = list(v) if isinstance(v, tuple) else v
         return out
 
@@ -363,20 +356,3 @@ class NeatSettings:
         """A copy with some flat settings changed (validated again)."""
         return self.from_mapping({**self.to_dict(), **changes})
 
-
-#: Settings whose default changed after runs were saved: a saved mapping (checkpoint, config.json,
-#: experiment.json) without the key was run with this value, so it resumes unchanged.  Unlike LATER_FIELDS, these
-#: are always written.
-LEGACY_VALUES = {"tie_break": "oldest", "respeciate_parents_first": False}
-
-
-def with_legacy_values(saved: Mapping[str, Any]) -> dict[str, Any]:
-    """A saved NEAT settings mapping with the values it was run with filled in (see :data:`LEGACY_VALUES`)."""
-    return {**LEGACY_VALUES, **saved}
-
-
-#: Settings added after checkpoints of the original-system runs were written; see :meth:`NeatSettings.to_dict`.
-LATER_FIELDS = frozenset(
-    {"crossover_mutation_probability", "population_stagnation_generations", "weight_difference_mean",
-     "species_order", "stagnation_rule"}
-)

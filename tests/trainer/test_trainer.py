@@ -164,33 +164,3 @@ def test_atomic_writes_leave_no_temp_files_and_normal_permissions(tmp_path):
     umask = os.umask(0)
     os.umask(umask)
     assert path.stat().st_mode & 0o777 == 0o666 & ~umask
-
-
-def _strip_tie_rule(run):
-    """Make a run folder look as if written before the LEGACY_VALUES settings, genome ages and parents existed."""
-    ck = json.loads((run / "checkpoint.json").read_text())
-    for key in ("tie_break", "respeciate_parents_first"):
-        del ck["config"]["neat"][key], ck["population"]["settings"][key]
-    del ck["population"]["born"], ck["population"]["parents"]
-    del ck["sha256"]  # nor content checksums
-    (run / "checkpoint.json").write_text(json.dumps(ck))
-    cfg = json.loads((run / "config.json").read_text())
-    del cfg["neat"]["tie_break"], cfg["neat"]["respeciate_parents_first"]
-    (run / "config.json").write_text(json.dumps(cfg))
-
-
-def test_a_run_saved_before_the_tie_rule_existed_resumes_with_its_rule(tmp_path, capsys):
-    from mahn_evo.neat import NeatSettings
-
-    def oldest(generations):
-        return small(generations=generations, neat=NeatSettings(tie_break="oldest", respeciate_parents_first=False))
-
-    train(oldest(4), tmp_path / "full")
-    train(oldest(2), tmp_path / "old")
-    _strip_tie_rule(tmp_path / "old")
-    with pytest.raises(ValueError, match=r"neat.tie_break.*the run was made with .*neat.tie_break = 'oldest'"):
-        Trainer(small(generations=4), tmp_path / "old", resume=True)  # today's default rule: refused, named
-    # the CLI resumes from the saved config, read with the values it was run with
-    assert main(["train", "--out", str(tmp_path / "old"), "--resume", "--generations", "4", "--quiet"]) == 0
-    drop = lambda rows: [{k: v for k, v in r.items() if k != "seconds"} for r in rows]  # noqa: E731
-    assert drop(_log(tmp_path / "old")) == drop(_log(tmp_path / "full"))
