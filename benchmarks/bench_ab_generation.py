@@ -77,7 +77,7 @@ def make_run(folder: str, pop: int, skip: int, init: str, episodes: int, noise: 
     """Train `skip` generations with this checkout into `folder` (the starting point of every worker)."""
     sys.path.insert(0, ROOT)
     from mahn_evo.config import TrainConfig
-    from mahn_evo.evaluate import task_params
+    from mahn_evo.task_setup import task_params
     from mahn_evo.trainer import Trainer
 
     cfg = TrainConfig(init=init, episodes=episodes, generations=max(skip, 1),
@@ -124,7 +124,7 @@ def main() -> None:
     ap.add_argument("--skip", type=int, default=20, help="generations trained before timing")
     ap.add_argument("--init", default="iros2011")
     ap.add_argument("--episodes", type=int, default=1)
-    ap.add_argument("--noise", default="none", help="task noise preset of mahn_evo.evaluate (none, generalization)")
+    ap.add_argument("--noise", default="none", help="task noise preset of mahn_evo.task_setup (none, generalization)")
     args = ap.parse_args()
     rows = []
     with tempfile.TemporaryDirectory() as tmp:

@@ -9,10 +9,10 @@ from pathlib import Path
 
 from .config import INITS, TrainConfig, load_config_file
 from .cppn import CPPN_ACTIVATIONS
-from .evaluate import NOISE_PRESETS
-from .evaluator import AGGREGATES, NOISE_DRAWS
 from .presets import PRESETS, apply_preset
 from .substrate import MODES
+from .task_setup import NOISE_PRESETS
+from .team_evaluator import AGGREGATES, NOISE_DRAWS
 
 
 def _fidelity_and_robustness_options(p: argparse.ArgumentParser) -> None:
@@ -214,8 +214,8 @@ def cmd_experiment(args) -> int:
 
 
 def cmd_generalize(args) -> int:
-    from .evaluate import task_params
     from .generalize import generalize
+    from .task_setup import task_params
 
     rows = generalize(args.run_dir, episodes=args.episodes, map=args.map, params=task_params(args.noise),
                       seed=args.seed)
@@ -293,7 +293,7 @@ def _run_training(args, trainer, config: TrainConfig) -> int:
               f"mahn-evo train --out {args.out} --resume", file=sys.stderr)
         return 130
     if args.gif and (args.out / "champion.json").exists():
-        from .evaluate import evaluate_champion
+        from .eval_champion import evaluate_champion
 
         evaluate_champion(args.out / "champion.json", map=config.map, video=args.out / "champion.gif")
         _trajectory_png(args.out / "champion.json", config.map, args.out / "champion.png")
@@ -318,7 +318,8 @@ def _trajectory_png(champion_path: Path, map_name: str, out_png: Path) -> dict:
 
 
 def cmd_eval(args) -> int:
-    from .evaluate import evaluate_champion, task_params
+    from .eval_champion import evaluate_champion
+    from .task_setup import task_params
 
     params = task_params(args.noise, sensor_noise=args.sensor_noise, effector_noise=args.effector_noise,
                          heading_noise=args.heading_noise, start_jitter_xy=args.start_jitter_xy,

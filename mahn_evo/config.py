@@ -16,9 +16,10 @@ from mahn_envs.core import TaskParams
 from mahn_envs.core.rng import check_seed
 
 from .cppn import CPPN_ACTIVATIONS
-from .evaluator import AGGREGATES, NOISE_DRAWS
 from .neat.settings import NeatSettings
 from .substrate import MODES
+from .task_setup import NOISE_PRESETS
+from .team_evaluator import AGGREGATES, NOISE_DRAWS
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -119,9 +120,7 @@ class TrainConfig:
         return cls.from_mapping({k: v for k, v in data.items() if k not in ("kind", "version")})
 
     def with_noise(self, preset: str) -> TrainConfig:
-        """This configuration with the task noise of a named preset (see mahn_evo.evaluate.NOISE_PRESETS)."""
-        from .evaluate import NOISE_PRESETS
-
+        """This configuration with the task noise of a named preset (see mahn_evo.task_setup.NOISE_PRESETS)."""
         if preset not in NOISE_PRESETS:
             raise ValueError(f"unknown noise preset {preset!r}; known: {sorted(NOISE_PRESETS)}")
         task = {**self.task.without_noise().to_dict(), **NOISE_PRESETS[preset]}

@@ -27,7 +27,6 @@ import numpy as np
 
 from .champion import Champion
 from .config import TrainConfig
-from .evaluator import TeamEvaluator
 from .files import (
     atomic_write_checked_json,
     atomic_write_csv,
@@ -40,6 +39,7 @@ from .files import (
 from .folder_lock import check_folder_usable
 from .neat.genome import Genome
 from .neat.population import Population
+from .team_evaluator import TeamEvaluator
 
 #: settings that only decide when a run ends; they may change when a run is resumed (e.g. more generations)
 STOPPING_RULES = ("generations", "stop_when_solved", "after_solved")

@@ -7,7 +7,7 @@ for a small population: the paper's seed genome, the minimal one, and noisy mult
 import pytest
 
 from mahn_evo.config import TrainConfig
-from mahn_evo.evaluate import task_params
+from mahn_evo.task_setup import task_params
 from mahn_evo.trainer import Trainer
 
 PINNED = {

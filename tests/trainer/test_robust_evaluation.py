@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 from mahn_evo.config import TrainConfig
-from mahn_evo.evaluator import TeamEvaluator
 from mahn_evo.neat import NeatSettings, Population
+from mahn_evo.team_evaluator import TeamEvaluator
 from mahn_evo.trainer import Trainer, train
 
 NOISY = TrainConfig().with_noise("generalization").task

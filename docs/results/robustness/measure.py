@@ -15,10 +15,11 @@ from mahn_envs.hardware.clock import VirtualClock
 from mahn_envs.policy import ControllerPolicy
 from mahn_evo.champion import Champion
 from mahn_evo.deploy import deploy
-from mahn_evo.evaluate import evaluate_champion, task_params
+from mahn_evo.eval_champion import evaluate_champion
 from mahn_evo.files import atomic_write_json
 from mahn_evo.margins import decision_margins
 from mahn_evo.protocols import sequential
+from mahn_evo.task_setup import task_params
 
 NOISY_EPISODES = 20
 SEQUENTIAL_EPISODES = 10
