@@ -30,7 +30,7 @@ INITS = ("iros2011", "minimal")
 
 
 @dataclass(frozen=True)
-class TrainConfig:
+class EvolutionConfig:
     """Everything that determines a run.  Same config (seed included) -> bit-identical run."""
 
     mode: str = "situational"
@@ -101,7 +101,7 @@ class TrainConfig:
         return d
 
     @classmethod
-    def from_mapping(cls, data: Mapping[str, Any]) -> TrainConfig:
+    def from_mapping(cls, data: Mapping[str, Any]) -> EvolutionConfig:
         names = {f.name for f in fields(cls)}
         unknown = set(data) - names
         if unknown:
@@ -114,19 +114,19 @@ class TrainConfig:
         return cls(**kw)
 
     @classmethod
-    def from_saved(cls, data: Mapping[str, Any]) -> TrainConfig:
+    def from_saved(cls, data: Mapping[str, Any]) -> EvolutionConfig:
         """A configuration a run saved (config.json, a checkpoint's), as read by mahn_evo.files, which upgraded it
         to the current format (mahn_evo.migrate) so it holds the values the run was made with."""
         return cls.from_mapping({k: v for k, v in data.items() if k not in ("kind", "version")})
 
-    def with_noise(self, preset: str) -> TrainConfig:
+    def with_noise(self, preset: str) -> EvolutionConfig:
         """This configuration with the task noise of a named preset (see mahn_evo.task_setup.NOISE_PRESETS)."""
         if preset not in NOISE_PRESETS:
             raise ValueError(f"unknown noise preset {preset!r}; known: {sorted(NOISE_PRESETS)}")
         task = {**self.task.without_noise().to_dict(), **NOISE_PRESETS[preset]}
         return replace(self, task=TaskParams.from_mapping(task))
 
-    def with_overrides(self, **changes: Any) -> TrainConfig:
+    def with_overrides(self, **changes: Any) -> EvolutionConfig:
         """Apply CLI-style overrides; `pop` is a shortcut for neat.population_size."""
         changes = {k: v for k, v in changes.items() if v is not None}
         neat = self.neat
@@ -137,8 +137,8 @@ class TrainConfig:
         return replace(self, neat=neat, **changes)
 
 
-def load_config_file(path: str | Path, base: TrainConfig | None = None) -> TrainConfig:
-    """A TrainConfig from a TOML/JSON file; the file's fields (and its `neat`/`task` keys) override `base`."""
+def load_config_file(path: str | Path, base: EvolutionConfig | None = None) -> EvolutionConfig:
+    """A EvolutionConfig from a TOML/JSON file; the file's fields (and its `neat`/`task` keys) override `base`."""
     p = Path(path)
     if not p.exists():
         raise ValueError(f"config file {str(p)!r} does not exist")
@@ -153,13 +153,13 @@ def load_config_file(path: str | Path, base: TrainConfig | None = None) -> Train
     except (tomllib.TOMLDecodeError, json.JSONDecodeError, RecursionError) as exc:
         raise ValueError(f"config file {str(p)!r} is not valid {p.suffix[1:].upper() or 'JSON'}: {exc!r}") from exc
     if not isinstance(data, dict):
-        raise ValueError(f"config file {str(p)!r} must hold a table (JSON object) of TrainConfig fields")
+        raise ValueError(f"config file {str(p)!r} must hold a table (JSON object) of EvolutionConfig fields")
     if base is None:
-        return TrainConfig.from_mapping(data)
+        return EvolutionConfig.from_mapping(data)
     merged = {**base.to_dict(), **data}
     for table in ("neat", "task"):
         if table in data:
             if not isinstance(data[table], dict):
                 raise ValueError(f"config file {str(p)!r}: `{table}` must be a table")
             merged[table] = {**base.to_dict()[table], **data[table]}
-    return TrainConfig.from_mapping(merged)
+    return EvolutionConfig.from_mapping(merged)

@@ -11,7 +11,7 @@ import pytest
 
 from mahn_evo.champion import Champion
 from mahn_evo.cli import main
-from mahn_evo.config import TrainConfig
+from mahn_evo.config import EvolutionConfig
 from mahn_evo.experiment.plan import ExperimentPlan
 from mahn_evo.files import CHECKSUM_KEY, atomic_write_json, read_checked_json, read_versioned_json, versioned
 from mahn_evo.migrate import FORMAT_VERSION, STEPS, upgrade
@@ -52,17 +52,17 @@ def test_the_old_rules_matter_and_the_trainer_names_them(tmp_path):
     assert main(["train", "--out", str(fresh), "--generations", "6", "--pop", "30", "--seed", "7", "--quiet"]) == 0
     assert _log(fresh / "log.csv") != _log(FIXTURES / "v1_10374b7" / "expected_log.csv")
     run = _old_run(tmp_path, "v1_10374b7")
-    asked = TrainConfig(generations=6, seed=7).with_overrides(pop=30)
+    asked = EvolutionConfig(generations=6, seed=7).with_overrides(pop=30)
     with pytest.raises(ValueError, match=r"neat.tie_break.*the run was made with .*neat.tie_break = 'oldest'"):
         Trainer(asked, run, resume=True)
-    saved = TrainConfig.from_saved(read_versioned_json(run / "config.json", "config"))
+    saved = EvolutionConfig.from_saved(read_versioned_json(run / "config.json", "config"))
     assert (saved.neat.tie_break, saved.neat.respeciate_parents_first) == ("oldest", False)
 
 
 def test_a_file_newer_than_the_code_is_refused_naming_file_and_versions(tmp_path):
     newer = FORMAT_VERSION + 1
     path = tmp_path / "config.json"
-    atomic_write_json(path, {**versioned("config", TrainConfig().to_dict()), "version": newer})
+    atomic_write_json(path, {**versioned("config", EvolutionConfig().to_dict()), "version": newer})
     with pytest.raises(ValueError, match=rf"config file .*config.json.* version {newer}, newer than this mahn reads "
                                          rf"\(versions 1 to {FORMAT_VERSION}\)"):
         read_versioned_json(path, "config")
@@ -141,5 +141,5 @@ V2_TRAIN_DEFAULTS = {
 def test_the_defaults_of_the_current_format_are_pinned():
     assert FORMAT_VERSION == 2, "a new format version pins its own defaults here"
     assert NeatSettings().to_dict() == V2_NEAT_DEFAULTS
-    config = TrainConfig().to_dict()
+    config = EvolutionConfig().to_dict()
     assert {k: v for k, v in config.items() if k not in ("neat", "task")} == V2_TRAIN_DEFAULTS

@@ -10,7 +10,7 @@ import pytest
 
 from mahn_evo.champion import Champion
 from mahn_evo.cli import main
-from mahn_evo.config import TrainConfig
+from mahn_evo.config import EvolutionConfig
 from mahn_evo.trainer import Trainer, train
 
 
@@ -18,7 +18,7 @@ def small(**kw):
     base = dict(generations=3, init="minimal", seed=3)
     base.update(kw)
     pop = base.pop("pop", 16)
-    return TrainConfig(**base).with_overrides(pop=pop)
+    return EvolutionConfig(**base).with_overrides(pop=pop)
 
 
 def _log(path):

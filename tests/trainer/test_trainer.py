@@ -8,7 +8,7 @@ from mahn_envs import BatchSim, patrol_return_v0
 from mahn_envs.policy import ControllerPolicy
 from mahn_evo.champion import Champion
 from mahn_evo.cli import main
-from mahn_evo.config import TrainConfig
+from mahn_evo.config import EvolutionConfig
 from mahn_evo.trainer import Trainer, train
 
 
@@ -16,7 +16,7 @@ def small(**kw):
     base = dict(generations=4, init="minimal", seed=3)
     base.update(kw)
     pop = base.pop("pop", 24)
-    return TrainConfig(**base).with_overrides(pop=pop)
+    return EvolutionConfig(**base).with_overrides(pop=pop)
 
 
 def _log(path):
@@ -126,9 +126,9 @@ def test_default_init_makes_progress():
     must leave it within a small budget."""
     import tempfile
 
-    assert (TrainConfig().init, TrainConfig().evaluate_modules) == ("iros2011", True)
+    assert (EvolutionConfig().init, EvolutionConfig().evaluate_modules) == ("iros2011", True)
     with tempfile.TemporaryDirectory() as d:
-        t = Trainer(TrainConfig(generations=15, seed=2).with_overrides(pop=80), d)
+        t = Trainer(EvolutionConfig(generations=15, seed=2).with_overrides(pop=80), d)
         t.run()
     assert max(r[4] for r in t.rows) > 2.5
 
