@@ -11,6 +11,7 @@ import json
 import sys
 from pathlib import Path
 
+from mahn_envs.hardware import RetryPolicy
 from mahn_envs.hardware.clock import VirtualClock
 from mahn_envs.policy import ControllerPolicy
 from mahn_evo.champion import Champion
@@ -37,8 +38,8 @@ def measure(run: Path) -> dict:
     seq = sequential(policy, map="plus", params=noisy, episodes=SEQUENTIAL_EPISODES)
     emulated = []
     for s in EMULATOR_SEEDS:
-        res = deploy(path, emulate=True, emulator_seed=s, clock=VirtualClock(), timeout=2.0,
-                     log_path=run / f"emulator_s{s}.csv")
+        res = deploy(path, emulate=True, emulator_seed=s, clock=VirtualClock(),
+                     env_kwargs={"retry": RetryPolicy(timeout=2.0)}, log_path=run / f"emulator_s{s}.csv")
         emulated.append(res.team_fitness)
     return {"run": run.name, "training_fitness": champ.fitness, "generation": champ.generation,
             "noise_free_fitness": clean["fitness"], "noisy_mean_fitness": rough["fitness"],
