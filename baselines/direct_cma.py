@@ -5,7 +5,7 @@ Why: HyperNEAT differs from RL both in *how* controllers are searched (evolution
 they are encoded (a CPPN painting the weights, not the weights themselves).  Evolving the weights directly,
 through the same networks (`mahn_envs.controllers.TeamControllers`), the same connections
 (`mahn_evo.substrate.query_layout`: one evolved number per substrate connection or bias, the signal input only
-in standard geometry) and the same evaluator (`mahn_evo.evaluator.TeamEvaluator.score`), separates the two.
+in standard geometry) and the same evaluator (`mahn_evo.team_evaluator.TeamEvaluator.score`), separates the two.
 
 Genome -> controllers: every value is clipped to [-3, 3], the range of HyperNEAT's decoded weights and
 biases; no normalisation (that is part of HyperNEAT's decoding, not of the networks).  Standard geometry has
@@ -39,9 +39,9 @@ import numpy as np
 
 from mahn_envs.controllers import TeamControllers
 from mahn_envs.core.params import TaskParams
-from mahn_evo.evaluator import TeamEvaluator
 from mahn_evo.files import atomic_write_csv, atomic_write_json, read_versioned_json, versioned
 from mahn_evo.substrate import MODES, WEIGHT_RANGE, query_layout
+from mahn_evo.team_evaluator import TeamEvaluator
 
 from .io import new_run_folder
 

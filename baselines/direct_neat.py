@@ -47,7 +47,6 @@ import numpy as np
 
 from mahn_envs.controllers import N_HIDDEN, N_OUTPUTS, TeamControllers
 from mahn_envs.core.params import TaskParams
-from mahn_evo.evaluator import TeamEvaluator
 from mahn_evo.files import (
     atomic_write_checked_json,
     atomic_write_csv,
@@ -58,6 +57,7 @@ from mahn_evo.files import (
 )
 from mahn_evo.neat import Genome, InnovationTracker, NeatSettings, NodeGene, Population
 from mahn_evo.substrate import MODES, WEIGHT_RANGE
+from mahn_evo.team_evaluator import TeamEvaluator
 
 from .direct_cma import DirectEncoding
 from .io import new_run_folder

@@ -22,10 +22,10 @@ ROOT = os.path.abspath(os.path.join(os.path.dirname(os.path.abspath(__file__)), 
 _CHILD = r"""
 import sys, tempfile, time
 import numpy as np
-from mahn_evo.config import TrainConfig
+from mahn_evo.config import EvolutionConfig
 from mahn_evo.trainer import Trainer
 pop, gens, reps = map(int, sys.argv[1:4])
-cfg = TrainConfig(generations=1000).with_overrides(pop=pop)
+cfg = EvolutionConfig(generations=1000).with_overrides(pop=pop)
 with tempfile.TemporaryDirectory() as d:
     tr = Trainer(cfg, d)
     rng = np.random.default_rng(0)

@@ -18,7 +18,7 @@ import numpy as np
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
 
 from mahn_envs.core import TaskParams  # noqa: E402
-from mahn_evo.config import TrainConfig  # noqa: E402
+from mahn_evo.config import EvolutionConfig  # noqa: E402
 from mahn_evo.trainer import Trainer  # noqa: E402
 
 
@@ -29,7 +29,7 @@ def main() -> None:
     ap.add_argument("--mode", default="situational")
     ap.add_argument("--init", default="minimal", help="minimal gives varied networks from generation 0")
     args = ap.parse_args()
-    cfg = TrainConfig(mode=args.mode, init=args.init, generations=args.generations + 2).with_overrides(pop=args.pop)
+    cfg = EvolutionConfig(mode=args.mode, init=args.init, generations=args.generations + 2).with_overrides(pop=args.pop)
     with tempfile.TemporaryDirectory() as d:
         tr = Trainer(cfg, d)
         tr.step()  # warm up (compiled code loads from cache)

@@ -54,8 +54,8 @@ class Champion:
             champ = cls(mode=data["mode"], fitness=_number(data["fitness"], "fitness"),
                         solved=_flag(data["solved"], "solved"), generation=_count(data["generation"], "generation"),
                         genome=Genome.from_dict(data["cppn"]),
-                        controllers=TeamControllers.from_dict(data["controllers"]), seed=data.get("seed"),
-                        map=data.get("map", "plus"))
+                        controllers=TeamControllers.from_dict(data["controllers"]), seed=data["seed"],
+                        map=data["map"])
         except (KeyError, TypeError, ValueError, AttributeError, IndexError) as exc:
             raise ValueError(f"{where} is missing or has a malformed field: {exc}") from exc
         _check_controllers_match_cppn(champ, where)

@@ -7,12 +7,12 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
-from .config import INITS, TrainConfig, load_config_file
+from .config import INITS, EvolutionConfig, load_config_file
 from .cppn import CPPN_ACTIVATIONS
-from .evaluate import NOISE_PRESETS
-from .evaluator import AGGREGATES, NOISE_DRAWS
 from .presets import PRESETS, apply_preset
 from .substrate import MODES
+from .task_setup import NOISE_PRESETS
+from .team_evaluator import AGGREGATES, NOISE_DRAWS
 
 
 def _fidelity_and_robustness_options(p: argparse.ArgumentParser) -> None:
@@ -57,7 +57,7 @@ def _train_parser(sub) -> None:
                    help="with --stop-when-solved, run G more generations so the archive gathers alternative "
                         "solutions for the generalisation test (default 0)")
     _fidelity_and_robustness_options(p)
-    p.add_argument("--config", type=Path, help="TOML or JSON file with TrainConfig fields (flags override it)")
+    p.add_argument("--config", type=Path, help="TOML or JSON file with EvolutionConfig fields (flags override it)")
     p.add_argument("--out", type=Path, default=Path("runs/latest"), help="run folder (default runs/latest)")
     p.add_argument("--resume", action="store_true", help="continue the run in --out from its checkpoint")
     p.add_argument("--overwrite", action="store_true", help="remove the run --out holds before starting")
@@ -179,10 +179,10 @@ def cmd_experiment(args) -> int:
     from .experiment.plan import ExperimentPlan
     from .experiment.runner import run_experiment
 
-    base = apply_preset(TrainConfig(), args.preset) if args.preset else TrainConfig()
+    base = apply_preset(EvolutionConfig(), args.preset) if args.preset else EvolutionConfig()
     if args.config:
         base = load_config_file(args.config, base)
-    neat = {k: v for k, v in base.neat.to_dict().items() if v != TrainConfig().neat.to_dict().get(k)}
+    neat = {k: v for k, v in base.neat.to_dict().items() if v != EvolutionConfig().neat.to_dict().get(k)}
     d = ExperimentPlan()
     chosen = {"init": args.init, "evaluate_modules": args.evaluate_modules, "cppn_activation": args.cppn_activation,
               "noise": args.noise, "episodes": args.episodes, "noise_draws": args.noise_draws,
@@ -215,8 +215,8 @@ def cmd_experiment(args) -> int:
 
 
 def cmd_generalize(args) -> int:
-    from .evaluate import task_params
     from .generalize import generalize
+    from .task_setup import task_params
 
     rows = generalize(args.run_dir, episodes=args.episodes, map=args.map, params=task_params(args.noise),
                       seed=args.seed)
@@ -257,7 +257,7 @@ def _progress_printer(quiet: bool, total: int):
 def cmd_train(args) -> int:
     from .trainer import Trainer
 
-    base = TrainConfig()
+    base = EvolutionConfig()
     if args.preset:
         base = apply_preset(base, args.preset)
     if args.config:
@@ -270,7 +270,7 @@ def cmd_train(args) -> int:
     if args.resume and (args.out / "config.json").exists() and not args.config and not args.preset:
         from .files import read_versioned_json
 
-        base = TrainConfig.from_saved(read_versioned_json(args.out / "config.json", "config"))
+        base = EvolutionConfig.from_saved(read_versioned_json(args.out / "config.json", "config"))
     config = base.with_overrides(**overrides)
     if args.noise is not None:
         config = config.with_noise(args.noise)
@@ -280,7 +280,7 @@ def cmd_train(args) -> int:
         return _run_training(args, Trainer(config, args.out, resume=args.resume, overwrite=args.overwrite), config)
 
 
-def _run_training(args, trainer, config: TrainConfig) -> int:
+def _run_training(args, trainer, config: EvolutionConfig) -> int:
     prog, on_gen = _progress_printer(args.quiet, config.generations)
     try:
         if prog is not None:
@@ -294,7 +294,7 @@ def _run_training(args, trainer, config: TrainConfig) -> int:
               f"mahn-evo train --out {args.out} --resume", file=sys.stderr)
         return 130
     if args.gif and (args.out / "champion.json").exists():
-        from .evaluate import evaluate_champion
+        from .eval_champion import evaluate_champion
 
         evaluate_champion(args.out / "champion.json", map=config.map, video=args.out / "champion.gif")
         _trajectory_png(args.out / "champion.json", config.map, args.out / "champion.png")
@@ -319,7 +319,8 @@ def _trajectory_png(champion_path: Path, map_name: str, out_png: Path) -> dict:
 
 
 def cmd_eval(args) -> int:
-    from .evaluate import evaluate_champion, task_params
+    from .eval_champion import evaluate_champion
+    from .task_setup import task_params
 
     params = task_params(args.noise, sensor_noise=args.sensor_noise, effector_noise=args.effector_noise,
                          heading_noise=args.heading_noise, start_jitter_xy=args.start_jitter_xy,

@@ -16,9 +16,10 @@ from mahn_envs.core import TaskParams
 from mahn_envs.core.rng import check_seed
 
 from .cppn import CPPN_ACTIVATIONS
-from .evaluator import AGGREGATES, NOISE_DRAWS
-from .neat.settings import NeatSettings, with_legacy_values
+from .neat.settings import NeatSettings
 from .substrate import MODES
+from .task_setup import NOISE_PRESETS
+from .team_evaluator import AGGREGATES, NOISE_DRAWS
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -29,7 +30,7 @@ INITS = ("iros2011", "minimal")
 
 
 @dataclass(frozen=True)
-class TrainConfig:
+class EvolutionConfig:
     """Everything that determines a run.  Same config (seed included) -> bit-identical run."""
 
     mode: str = "situational"
@@ -77,7 +78,7 @@ class TrainConfig:
         if self.cppn_activation == "relax" and not self.evaluate_modules:
             raise ValueError("cppn_activation 'relax' always evaluates the Multiply modules (as the original's "
                              "MultipleSteps does): it cannot be combined with evaluate_modules = false")
-        if self.neat.evaluate_modules:  # a NEAT-level leftover: the trainer reads the top-level flag only
+        if self.neat.cppn.evaluate_modules:  # a NEAT-level leftover: the trainer reads the top-level flag only
             raise ValueError("set evaluate_modules at the top level of the configuration, not under `neat`")
         for name in ("generations", "episodes", "checkpoint_every"):
             v = getattr(self, name)
@@ -100,7 +101,7 @@ class TrainConfig:
         return d
 
     @classmethod
-    def from_mapping(cls, data: Mapping[str, Any]) -> TrainConfig:
+    def from_mapping(cls, data: Mapping[str, Any]) -> EvolutionConfig:
         names = {f.name for f in fields(cls)}
         unknown = set(data) - names
         if unknown:
@@ -113,38 +114,31 @@ class TrainConfig:
         return cls(**kw)
 
     @classmethod
-    def from_saved(cls, data: Mapping[str, Any]) -> TrainConfig:
-        """A configuration a run saved (config.json, checkpoint), read with the values it was run with: settings
-        whose default changed since are filled with their old value (see neat.settings.LEGACY_VALUES)."""
-        data = {k: v for k, v in data.items() if k not in ("kind", "version")}
-        return cls.from_mapping({**data, "neat": with_legacy_values(data.get("neat", {}))})
+    def from_saved(cls, data: Mapping[str, Any]) -> EvolutionConfig:
+        """A configuration a run saved (config.json, a checkpoint's), as read by mahn_evo.files, which upgraded it
+        to the current format (mahn_evo.migrate) so it holds the values the run was made with."""
+        return cls.from_mapping({k: v for k, v in data.items() if k not in ("kind", "version")})
 
-    def with_noise(self, preset: str) -> TrainConfig:
-        """This configuration with the task noise of a named preset (see mahn_evo.evaluate.NOISE_PRESETS)."""
-        from .evaluate import NOISE_PRESETS
-
+    def with_noise(self, preset: str) -> EvolutionConfig:
+        """This configuration with the task noise of a named preset (see mahn_evo.task_setup.NOISE_PRESETS)."""
         if preset not in NOISE_PRESETS:
             raise ValueError(f"unknown noise preset {preset!r}; known: {sorted(NOISE_PRESETS)}")
         task = {**self.task.without_noise().to_dict(), **NOISE_PRESETS[preset]}
         return replace(self, task=TaskParams.from_mapping(task))
 
-    def with_overrides(self, **changes: Any) -> TrainConfig:
+    def with_overrides(self, **changes: Any) -> EvolutionConfig:
         """Apply CLI-style overrides; `pop` is a shortcut for neat.population_size."""
         changes = {k: v for k, v in changes.items() if v is not None}
         neat = self.neat
         if "pop" in changes:
             pop = changes.pop("pop")
-            neat = neat.replace(population_size=pop, species_count_min=None, species_count_max=None) \
-                if _has_species_fields(neat) else neat.replace(population_size=pop)
+            # the species count range follows the population size again (a range set for another size is stale)
+            neat = neat.replace(population_size=pop, species_count_min=None, species_count_max=None)
         return replace(self, neat=neat, **changes)
 
 
-def _has_species_fields(neat: NeatSettings) -> bool:
-    return {"species_count_min", "species_count_max"} <= {f.name for f in fields(neat)}
-
-
-def load_config_file(path: str | Path, base: TrainConfig | None = None) -> TrainConfig:
-    """A TrainConfig from a TOML/JSON file; the file's fields (and its `neat`/`task` keys) override `base`."""
+def load_config_file(path: str | Path, base: EvolutionConfig | None = None) -> EvolutionConfig:
+    """A EvolutionConfig from a TOML/JSON file; the file's fields (and its `neat`/`task` keys) override `base`."""
     p = Path(path)
     if not p.exists():
         raise ValueError(f"config file {str(p)!r} does not exist")
@@ -159,13 +153,13 @@ def load_config_file(path: str | Path, base: TrainConfig | None = None) -> Train
     except (tomllib.TOMLDecodeError, json.JSONDecodeError, RecursionError) as exc:
         raise ValueError(f"config file {str(p)!r} is not valid {p.suffix[1:].upper() or 'JSON'}: {exc!r}") from exc
     if not isinstance(data, dict):
-        raise ValueError(f"config file {str(p)!r} must hold a table (JSON object) of TrainConfig fields")
+        raise ValueError(f"config file {str(p)!r} must hold a table (JSON object) of EvolutionConfig fields")
     if base is None:
-        return TrainConfig.from_mapping(data)
+        return EvolutionConfig.from_mapping(data)
     merged = {**base.to_dict(), **data}
     for table in ("neat", "task"):
         if table in data:
             if not isinstance(data[table], dict):
                 raise ValueError(f"config file {str(p)!r}: `{table}` must be a table")
             merged[table] = {**base.to_dict()[table], **data[table]}
-    return TrainConfig.from_mapping(merged)
+    return EvolutionConfig.from_mapping(merged)

@@ -18,7 +18,7 @@ import csv
 import math
 import sys
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -67,29 +67,34 @@ def _fmt(v: float) -> str:
 
 
 def deploy(champion_path: str | Path, ports: Sequence[str] | None = None, *,
-           log_path: str | Path | None = None, map: str | None = None, max_cycles: int = ORIGINAL_MAX_TICKS,
-           signal_tick: int = ORIGINAL_SIGNAL_TICK, auto_signal: bool = True, placement: Any = None,
-           time_scale: float = 1.0, forward_speed: float | None = None, turn_rate: float | None = None,
-           wheel_base: float = 8.85, speed_unit: Any = "auto", calibration: Any = "paper", reflex: bool = True,
-           timeout: float = 0.12, attempts: int = 3, emulate: bool = False, emulator_seed: int = 0,
-           clock: Any = None, env_kwargs: dict | None = None, on_tick: Callable[[int, dict], None] | None = None,
+           log_path: str | Path | None = None, emulate: bool = False, emulator_seed: int = 0, clock: Any = None,
+           env_kwargs: Mapping[str, Any] | None = None, on_tick: Callable[[int, dict], None] | None = None,
            quiet: bool = True, stop_wait: float | None = None) -> DeployResult:
     """Run the champion's team for one episode on the robots at `ports` and log every tick to CSV.
 
+    How the robots run is the hardware env's own settings, passed as `env_kwargs` (the keyword arguments of
+    ``KheperaHardwareEnv``: ``max_cycles``, ``signal_tick``, ``auto_signal``, ``reflex``, the drive
+    ``forward_speed`` / ``turn_rate`` / ``wheel_base``, ``speed_unit``, ``calibration``, ``retry`` (a
+    ``RetryPolicy``), ...), so each has one default and one validation, the env's.  deploy chooses only: ``map``
+    (default the champion's), ``placement`` (default "prompt" on robots, "none" with the emulator, which places
+    its robots itself; "prompt" waits for Enter and needs a terminal or a line on stdin; or a function
+    {agent: pose} -> None) and, with the emulator, ``pose_source``.
+
     With ``emulate=True`` an in-process emulator stands in for the robots (`ports` must then be None); it
-    also acts as the overhead tracker, so the log has poses and the result the task's fitness.  `placement`
-    (None: "prompt" on robots, "none" with the emulator, which places its robots itself) is "prompt" (wait for
-    Enter; needs a terminal or a line on stdin), "none" or a function {agent: pose} -> None.  The CSV log is
+    also acts as the overhead tracker, so the log has poses and the result the task's fitness.  The CSV log is
     created once the robots are placed, so a run that fails before that leaves no empty log.  `clock`
-    (default: real time times `time_scale`) paces the env and the emulator; a VirtualClock runs lock-step.
+    (default: real time) paces the env and the emulator; a VirtualClock runs lock-step.
     Returns a :class:`DeployResult`; the robots are stopped whatever happens.  A stop that a robot has not
     confirmed is resent in the background: before returning (or raising) deploy waits up to `stop_wait`
     seconds (None: until every robot confirms, or Ctrl-C) for it, since the resending ends with the program.
     """
-    from mahn_envs.hardware import KheperaEmulator, KheperaHardwareEnv, RealClock, RetryPolicy
+    from mahn_envs.hardware import KheperaEmulator, KheperaHardwareEnv, RealClock
 
+    kwargs = dict(env_kwargs or {})
+    if "clock" in kwargs:
+        raise ValueError("pass the clock to deploy (clock=...), which paces the emulator too, not in env_kwargs")
     team, data = load_team(champion_path)
-    map_name = map if map is not None else data.get("map", "plus")
+    map_name = kwargs.get("map") or data.get("map", "plus")
     n = team.n_robots
     if emulate:
         if ports:
@@ -103,14 +108,10 @@ def deploy(champion_path: str | Path, ports: Sequence[str] | None = None, *,
         log_path = Path(champion_path).with_name(f"deploy-{stamp}.csv")
     log_path = Path(log_path)
     log_path.parent.mkdir(parents=True, exist_ok=True)
-    if placement is None:
-        placement = "none" if emulate else "prompt"
-    clock = clock if clock is not None else RealClock(time_scale)
-    kwargs = dict(map=map_name, forward_speed=forward_speed, turn_rate=turn_rate, wheel_base=wheel_base,
-                  speed_unit=speed_unit, calibration=calibration, reflex=reflex, clock=clock,
-                  max_cycles=max_cycles, signal_tick=signal_tick, auto_signal=auto_signal, placement=placement,
-                  retry=RetryPolicy(timeout=timeout, attempts=attempts))
-    kwargs.update(env_kwargs or {})
+    if kwargs.get("placement") is None:
+        kwargs["placement"] = "none" if emulate else "prompt"
+    clock = clock if clock is not None else RealClock()
+    kwargs.update(map=map_name, clock=clock)
     emulator = None
     try:
         if emulate:
@@ -254,6 +255,8 @@ def run_deploy(args: argparse.Namespace) -> int:
     import signal as _signal
     import threading
 
+    from mahn_envs.hardware import RealClock
+
     def _exit_on_sigterm(signum: int, frame: Any) -> None:
         raise SystemExit(128 + signum)
 
@@ -261,13 +264,9 @@ def run_deploy(args: argparse.Namespace) -> int:
     if threading.current_thread() is threading.main_thread():  # SIGTERM -> SystemExit: the stops still run
         previous = _signal.signal(_signal.SIGTERM, _exit_on_sigterm)
     try:
-        result = deploy(args.champion, args.ports, log_path=args.log, map=args.map, max_cycles=args.max_cycles,
-                        signal_tick=args.signal_tick, auto_signal=not args.no_auto_signal,
-                        placement=args.placement, time_scale=args.time_scale, forward_speed=args.forward_speed,
-                        turn_rate=args.turn_rate, wheel_base=args.wheel_base,
-                        speed_unit="auto" if args.speed_unit is None else args.speed_unit,
-                        calibration=args.calibration, reflex=not args.no_reflex, timeout=args.timeout,
-                        attempts=args.attempts, emulate=args.emulate, emulator_seed=args.seed, quiet=False)
+        result = deploy(args.champion, args.ports, log_path=args.log, emulate=args.emulate,
+                        emulator_seed=args.seed, clock=RealClock(args.time_scale), env_kwargs=_env_kwargs(args),
+                        quiet=False)
     except KeyboardInterrupt:
         print("deploy: interrupted; robots stopped", file=sys.stderr)
         return 130
@@ -282,6 +281,17 @@ def run_deploy(args: argparse.Namespace) -> int:
           f"max {result.max_period * 1000:.1f} ms, {result.overruns} overruns; team fitness {fit}, "
           f"solved {result.solved}; log {result.log_path}")
     return 0
+
+
+def _env_kwargs(args: argparse.Namespace) -> dict[str, Any]:
+    """The hardware env's settings (KheperaHardwareEnv keywords) from the command line."""
+    from mahn_envs.hardware import RetryPolicy
+
+    return dict(map=args.map, max_cycles=args.max_cycles, signal_tick=args.signal_tick,
+                auto_signal=not args.no_auto_signal, placement=args.placement, forward_speed=args.forward_speed,
+                turn_rate=args.turn_rate, wheel_base=args.wheel_base,
+                speed_unit="auto" if args.speed_unit is None else args.speed_unit, calibration=args.calibration,
+                reflex=not args.no_reflex, retry=RetryPolicy(timeout=args.timeout, attempts=args.attempts))
 
 
 def main(argv: Sequence[str] | None = None) -> int:

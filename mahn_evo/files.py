@@ -17,7 +17,7 @@ from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-FORMAT_VERSION = 1
+from .migrate import FORMAT_VERSION, check_version, upgrade
 
 #: key of the content checksum in files that carry one (checkpoints): sha256 of the canonical JSON of the rest
 CHECKSUM_KEY = "sha256"
@@ -94,17 +94,18 @@ def read_json_object(path: str | Path, what: str) -> dict[str, Any]:
 
 
 def read_versioned_json(path: str | Path, kind: str) -> dict[str, Any]:
-    """Load a file we wrote; a wrong kind, a newer/older version or corrupt JSON is a ValueError naming it."""
-    return check_versioned(read_json_object(path, kind), path, kind)
+    """Load a file we wrote, upgraded to the current format (mahn_evo.migrate); a wrong kind, a version newer than
+    this code or corrupt JSON is a ValueError naming it."""
+    return upgrade(_check_kind(read_json_object(path, kind), path, kind), kind, _where(path, kind))
 
 
-def check_versioned(data: dict[str, Any], path: str | Path, kind: str) -> dict[str, Any]:
+def _where(path: str | Path, kind: str) -> str:
+    return f"{kind} file {str(path)!r}"
+
+
+def _check_kind(data: dict[str, Any], path: str | Path, kind: str) -> dict[str, Any]:
     if data.get("kind") != kind:
         raise ValueError(f"{str(path)!r} is not a mahn {kind} file (kind={data.get('kind')!r})")
-    version = data.get("version")
-    if version != FORMAT_VERSION:
-        raise ValueError(f"{kind} file {str(path)!r} has format version {version!r}; this mahn reads version "
-                         f"{FORMAT_VERSION}. Re-create it with a matching mahn release.")
     return data
 
 
@@ -138,12 +139,17 @@ def atomic_write_checked_json(path: str | Path, kind: str, payload: Mapping[str,
 
 
 def read_checked_json(path: str | Path, kind: str) -> dict[str, Any]:
-    """Load a file written by atomic_write_checked_json; a content that does not match its checksum is a
-    ValueError naming the file.  Files written before checksums existed (no CHECKSUM_KEY) are accepted."""
-    data = read_versioned_json(path, kind)
+    """Load a file written by atomic_write_checked_json, upgraded to the current format (mahn_evo.migrate); a
+    content that does not match its checksum is a ValueError naming the file.  The checksum is checked on the file
+    as written, before the upgrade; only version-1 files may lack it (written before checksums existed)."""
+    data = _check_kind(read_json_object(path, kind), path, kind)
+    version = check_version(data, _where(path, kind))
     expected = data.pop(CHECKSUM_KEY, None)
     if expected is None:
-        return data
+        if version >= 2:
+            raise ValueError(f"{kind} file {str(path)!r} is damaged: it has no {CHECKSUM_KEY} checksum (edited by "
+                             "hand?); restore it from a backup, or start the run again")
+        return upgrade(data, kind, _where(path, kind))
     payload = {k: v for k, v in data.items() if k not in ("kind", "version")}
     try:
         actual = _sha256(canonical_json(payload))
@@ -153,7 +159,7 @@ def read_checked_json(path: str | Path, kind: str) -> dict[str, Any]:
         raise ValueError(f"{kind} file {str(path)!r} is damaged: its content does not match its {CHECKSUM_KEY} "
                          "checksum (edited by hand or corrupted on disk); restore it from a backup, or start the run "
                          "again")
-    return data
+    return upgrade(data, kind, _where(path, kind))
 
 
 #: the temporary files of atomic_write_text: ".<name>.<random>.tmp"

@@ -16,8 +16,8 @@ from mahn_envs.controllers import TeamControllers
 from mahn_envs.core import BatchSim, TaskParams
 
 from .champion import Champion
-from .evaluate import task_params
 from .files import atomic_write_csv, atomic_write_json, versioned
+from .task_setup import task_params
 
 
 def solutions_of(run_dir: str | Path) -> list[Path]:

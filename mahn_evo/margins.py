@@ -19,7 +19,7 @@ from mahn_envs.core.params import TaskParams
 from mahn_envs.policy import ControllerPolicy
 
 from .champion import Champion
-from .evaluate import task_env
+from .task_setup import task_env
 
 #: margins below this count as near-ties: the threshold of the original code's (unused) "confused" counter.
 NEAR_TIE = 0.001

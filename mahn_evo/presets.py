@@ -20,7 +20,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
-from .config import TrainConfig
+from .config import EvolutionConfig
 
 PRESETS: dict[str, dict[str, Any]] = {
     "iros2011-code": {
@@ -46,8 +46,8 @@ def preset_fields(name: str) -> Mapping[str, Any]:
         raise ValueError(f"unknown preset {name!r}; known: {sorted(PRESETS)}") from None
 
 
-def apply_preset(config: TrainConfig, name: str) -> TrainConfig:
+def apply_preset(config: EvolutionConfig, name: str) -> EvolutionConfig:
     """`config` with the fields of preset `name` set (NEAT settings merged into its own)."""
     fields = dict(preset_fields(name))
     neat = {**config.neat.to_dict(), **fields.pop("neat", {})}
-    return TrainConfig.from_mapping({**config.to_dict(), **fields, "neat": neat})
+    return EvolutionConfig.from_mapping({**config.to_dict(), **fields, "neat": neat})

@@ -1,7 +1,7 @@
 """The training loop: NEAT (ask/tell) -> CPPN decoding -> batch evaluation, with files a researcher keeps.
 
 Run folder:
-  config.json      the resolved TrainConfig
+  config.json      the resolved EvolutionConfig
   log.csv          one row per generation (fitness, species, solved, evaluations, seconds)
   checkpoint.json  full NEAT state + trainer state after the last finished generation (atomic, with the sha256
                    of its content: a changed digit is refused, not resumed as another run); --resume
@@ -26,8 +26,7 @@ from typing import Any
 import numpy as np
 
 from .champion import Champion
-from .config import TrainConfig
-from .evaluator import TeamEvaluator
+from .config import EvolutionConfig
 from .files import (
     atomic_write_checked_json,
     atomic_write_csv,
@@ -40,6 +39,7 @@ from .files import (
 from .folder_lock import check_folder_usable
 from .neat.genome import Genome
 from .neat.population import Population
+from .team_evaluator import TeamEvaluator
 
 #: settings that only decide when a run ends; they may change when a run is resumed (e.g. more generations)
 STOPPING_RULES = ("generations", "stop_when_solved", "after_solved")
@@ -69,7 +69,7 @@ class Progress:
 class Trainer:
     """One evolutionary run in a folder.  Create it fresh or with resume=True to continue a checkpoint."""
 
-    def __init__(self, config: TrainConfig, out_dir: str | Path, resume: bool = False,
+    def __init__(self, config: EvolutionConfig, out_dir: str | Path, resume: bool = False,
                  overwrite: bool = False) -> None:
         """resume: continue the folder's checkpoint (a run killed before its first checkpoint starts over, the
         same run from the same config).  overwrite: remove the folder's old run first.  A fresh run in a
@@ -113,7 +113,7 @@ class Trainer:
     def _check_same_run(self, saved_config: dict) -> None:
         """The configuration a folder's run was made with must be the one asked for, but for STOPPING_RULES."""
         # the values it was run with: keys added since keep their defaults, changed defaults their old values
-        saved = TrainConfig.from_saved(saved_config).to_dict()
+        saved = EvolutionConfig.from_saved(saved_config).to_dict()
         asked = self.config.to_dict()
         differing = sorted(k for k in asked if k not in STOPPING_RULES and saved[k] != asked[k])
         if "neat" in differing:  # name the NEAT settings, so the message says what to set
@@ -235,9 +235,10 @@ class Trainer:
         """Write the log, checkpoint, summary and fitness plot for what has been run so far."""
         self._write_log()
         self._checkpoint()
+        pop = self.config.neat.reproduction.population_size
         summary = {"mode": self.config.mode, "seed": self.config.seed, "init": self.config.init,
                    "map": self.config.map, "generations": self.generation,
-                   "population": self.config.neat.population_size,
+                   "population": pop,
                    "best_fitness": None if not np.isfinite(self.best_fitness) else self.best_fitness,
                    "solved": self.first_solved is not None, "first_solved_generation": self.first_solved,
                    "evaluations": self.rows[-1][1] if self.rows else 0, "wall_seconds": round(self.wall, 3)}
@@ -245,7 +246,7 @@ class Trainer:
         from .plots import fitness_curve
 
         fitness_curve(self.out / "log.csv", self.out / "fitness.png",
-                      title=f"{self.config.mode}, seed {self.config.seed}, pop {self.config.neat.population_size}")
+                      title=f"{self.config.mode}, seed {self.config.seed}, pop {pop}")
         return summary
 
 
@@ -270,7 +271,7 @@ def _saved_values(saved: dict[str, Any], keys: list[str]) -> str:
     return ", ".join(vals)
 
 
-def train(config: TrainConfig, out_dir: str | Path, resume: bool = False,
+def train(config: EvolutionConfig, out_dir: str | Path, resume: bool = False,
           on_generation: Callable[[Progress], None] | None = None, overwrite: bool = False) -> dict:
     """Python API of `mahn-evo train`: run (or continue, or replace) a run and return its summary."""
     return Trainer(config, out_dir, resume=resume, overwrite=overwrite).run(on_generation)

@@ -89,8 +89,3 @@ def activation_code(name: str) -> int:
         return ACTIVATIONS[name][0]
     except KeyError:
         raise ValueError(f"unknown activation function {name!r}; known: {sorted(ACTIVATIONS)}") from None
-
-
-def apply(name: str, x: np.ndarray) -> np.ndarray:
-    """Apply the named activation to an array."""
-    return ACTIVATIONS[name][1](x)

@@ -1,6 +1,6 @@
 """Where the independent runs of an experiment execute: local processes (default) or a Ray cluster.
 
-A run is a pure function of its TrainConfig, so both backends give bit-identical run folders for the same
+A run is a pure function of its EvolutionConfig, so both backends give bit-identical run folders for the same
 seeds; the backend only decides where the work happens.  Every run checkpoints each generation, so an
 interrupted experiment (Ctrl-C, a lost node) loses at most one generation per run when it is started again.
 Local workers die with the experiment process, even when it is killed by SIGKILL (`die_with_parent`), and each
@@ -23,20 +23,20 @@ from typing import Any
 
 BACKENDS = ("local", "ray")
 
-Task = tuple[str, dict[str, Any], str]  # (run name, TrainConfig dict, run folder)
+Task = tuple[str, dict[str, Any], str]  # (run name, EvolutionConfig dict, run folder)
 
 
 def run_one(config: dict[str, Any], run_dir: str, threads: int = 1) -> dict[str, Any]:
     """Run (or finish, or just read) one training run, holding its folder's lock; returns its summary."""
     import numba
 
-    from ..config import TrainConfig
+    from ..config import EvolutionConfig
     from ..files import read_json_object
     from ..folder_lock import folder_lock
     from ..trainer import Trainer
 
     numba.set_num_threads(max(1, min(threads, numba.config.NUMBA_NUM_THREADS)))
-    cfg = TrainConfig.from_mapping(config)
+    cfg = EvolutionConfig.from_mapping(config)
     out = Path(run_dir)
     with folder_lock(out, "run folder"):
         # a run killed before its first checkpoint has only its config.json: resuming starts it over

@@ -14,9 +14,10 @@ from typing import Any
 
 from mahn_envs.core.rng import check_seed
 
-from ..config import INITS, TrainConfig
+from ..config import INITS, EvolutionConfig
 from ..files import atomic_write_json, read_versioned_json, versioned
-from ..neat.settings import LEGACY_VALUES, NeatSettings, with_legacy_values
+from ..migrate import V1_CHANGED_NEAT_DEFAULTS
+from ..neat.settings import NeatSettings
 from ..substrate import MODES
 
 PLAN_FILE = "experiment.json"
@@ -29,10 +30,10 @@ class ExperimentPlan:
     seed: int = 1  # run i of every mode uses seed + i (paired seeds across modes)
     generations: int = 1000
     population: int = 500
-    init: str = "iros2011"  # the trainer's defaults (see TrainConfig)
+    init: str = "iros2011"  # the trainer's defaults (see EvolutionConfig)
     evaluate_modules: bool = True
     cppn_activation: str = "recursive"
-    #: robust evaluation (see TrainConfig): a task noise preset, episodes per team, their draws and aggregation
+    #: robust evaluation (see EvolutionConfig): a task noise preset, episodes per team, their draws and aggregation
     noise: str = "none"
     episodes: int = 1
     noise_draws: str = "fixed"
@@ -52,7 +53,8 @@ class ExperimentPlan:
     def __post_init__(self) -> None:
         object.__setattr__(self, "modes", tuple(self.modes))
         # the plan names the NEAT rules whose default changed, so an experiment.json says which ones its runs used
-        object.__setattr__(self, "neat", {**{k: getattr(NeatSettings(), k) for k in LEGACY_VALUES}, **self.neat})
+        object.__setattr__(self, "neat", {**{k: getattr(NeatSettings(), k) for k in V1_CHANGED_NEAT_DEFAULTS},
+                                               **self.neat})
         bad = [m for m in self.modes if m not in MODES]
         if bad or not self.modes or len(set(self.modes)) != len(self.modes):
             raise ValueError(f"modes must be distinct values of {MODES}, got {list(self.modes)}")
@@ -77,8 +79,8 @@ class ExperimentPlan:
     def run_name(self, mode: str, seed: int) -> str:
         return f"{mode}_s{seed:03d}"
 
-    def train_config(self, mode: str, seed: int) -> TrainConfig:
-        base = TrainConfig(mode=mode, generations=self.generations, seed=seed, init=self.init, map=self.map,
+    def train_config(self, mode: str, seed: int) -> EvolutionConfig:
+        base = EvolutionConfig(mode=mode, generations=self.generations, seed=seed, init=self.init, map=self.map,
                            evaluate_modules=self.evaluate_modules, cppn_activation=self.cppn_activation,
                            episodes=self.episodes, noise_draws=self.noise_draws, aggregate=self.aggregate,
                            quantile=self.quantile, noise_free_episode=self.noise_free_episode,
@@ -86,11 +88,11 @@ class ExperimentPlan:
                            after_solved=self.after_solved).with_noise(self.noise)
         base = base.with_overrides(pop=self.population)
         if self.neat:
-            base = TrainConfig.from_mapping({**base.to_dict(), "neat": {**base.neat.to_dict(), **self.neat,
+            base = EvolutionConfig.from_mapping({**base.to_dict(), "neat": {**base.neat.to_dict(), **self.neat,
                                                                          "population_size": self.population}})
         task = base.task.to_dict()
         task.update(max_cycles=self.max_cycles, signal_tick=self.signal_tick)
-        return TrainConfig.from_mapping({**base.to_dict(), "task": task})
+        return EvolutionConfig.from_mapping({**base.to_dict(), "task": task})
 
     def tasks(self, out: str | Path) -> list[tuple[str, int, Path]]:
         """(mode, seed, run folder) for every run, seeds interleaved across modes so partial results stay paired."""
@@ -114,9 +116,7 @@ class ExperimentPlan:
 
     @classmethod
     def load(cls, out: str | Path) -> ExperimentPlan:
-        data = read_versioned_json(Path(out) / PLAN_FILE, "experiment")
-        # a plan saved before these NEAT rules were recorded ran with the old ones (see LEGACY_VALUES)
-        return cls.from_mapping({**data, "neat": with_legacy_values(data.get("neat", {}))})
+        return cls.from_mapping(read_versioned_json(Path(out) / PLAN_FILE, "experiment"))
 
     def save_or_check(self, out: str | Path) -> None:
         """Write experiment.json, or refuse if the folder holds an experiment with another plan."""

@@ -17,10 +17,11 @@ from mahn_envs.core import BatchSim
 from mahn_envs.policy import ControllerPolicy
 
 from ..champion import Champion
-from ..evaluate import evaluate_champion, task_params
+from ..eval_champion import evaluate_champion
 from ..generalize import generalize
 from ..margins import decision_margins
 from ..protocols import sequential, sequential_episode
+from ..task_setup import task_params
 from .plan import ExperimentPlan
 from .table import RunRecord
 

@@ -14,7 +14,15 @@ from .initial import initial_population, iros2011_seed_genome, minimal_genome
 from .innovation import InnovationTracker
 from .mutation import add_connection, add_node, mutate, mutate_weights
 from .population import GenerationStats, Population
-from .settings import NeatSettings
+from .settings import (
+    CppnSettings,
+    InitialisationSettings,
+    MutationSettings,
+    NeatSettings,
+    ReproductionSettings,
+    SelectionSettings,
+    SpeciationSettings,
+)
 from .speciation import Species, ThresholdController, compatibility_distance
 
 __all__ = [
@@ -24,6 +32,12 @@ __all__ = [
     "ModuleGene",
     "InnovationTracker",
     "NeatSettings",
+    "ReproductionSettings",
+    "SelectionSettings",
+    "MutationSettings",
+    "SpeciationSettings",
+    "InitialisationSettings",
+    "CppnSettings",
     "initial_population",
     "iros2011_seed_genome",
     "minimal_genome",

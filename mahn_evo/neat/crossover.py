@@ -34,7 +34,7 @@ def crossover(
         a, b = parent2, parent1
     else:
         a, b = (parent1, parent2) if rng.random() < 0.5 else (parent2, parent1)
-    combine = rng.random() < settings.disjoint_excess_recombine_probability
+    combine = rng.random() < settings.reproduction.disjoint_excess_recombine_probability
 
     _, ia, ib = np.intersect1d(a.innov, b.innov, assume_unique=True, return_indices=True)
     w = a.weight.copy()

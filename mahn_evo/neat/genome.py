@@ -139,16 +139,6 @@ class Genome:
     def node_ids(self) -> frozenset[int]:
         return self._info.id_set
 
-    @property
-    def max_id(self) -> int:
-        """Largest node, module or innovation id used by this genome."""
-        m = max((n.id for n in self.nodes), default=-1)
-        if self.innov.size:
-            m = max(m, int(self.innov[-1]))
-        if self.modules:
-            m = max(m, max(mod.id for mod in self.modules))
-        return m
-
     def with_weights(self, weight: np.ndarray) -> Genome:
         """A genome identical to this one except for the weight array (shares everything else)."""
         return Genome(

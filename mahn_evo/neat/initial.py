@@ -110,25 +110,25 @@ def initial_population(
     n_outputs: int = 2,
     output_activation: str = "bipolar_sigmoid",
 ) -> tuple[list[Genome], InnovationTracker]:
-    """``settings.population_size`` genomes and the innovation tracker that continues their ids.
+    """``settings.reproduction.population_size`` genomes and the innovation tracker that continues their ids.
 
     kind: ``"iros2011"`` (seed genome + jittered copies; n_inputs 5 or 6, two bipolar-sigmoid outputs) or
     ``"minimal"`` (fully connected, no hidden nodes, random weights).
     """
-    n = settings.population_size
+    n = settings.reproduction.population_size
     if n_inputs < 1 or n_outputs < 1:
         raise ValueError(f"initial_population: need n_inputs >= 1 and n_outputs >= 1, got {n_inputs}, {n_outputs}")
     if kind == "iros2011":
         if n_outputs != 2 or output_activation != "bipolar_sigmoid":
             raise ValueError("initial_population: the iros2011 seed has exactly two bipolar_sigmoid outputs")
         seed = iros2011_seed_genome(n_inputs)
-        j = settings.initial_weight_jitter
+        j = settings.initialisation.initial_weight_jitter
         genomes = [seed]
         for _ in range(n - 1):
             genomes.append(seed.with_weights(seed.weight + rng.uniform(-j, j, seed.n_connections)))
         return genomes, InnovationTracker(SEED_NEXT_ID)
     if kind == "minimal":
-        r = settings.initial_weight_range
+        r = settings.initialisation.initial_weight_range
         n_conn = (n_inputs + 1) * n_outputs
         first = minimal_genome(n_inputs, n_outputs, rng.uniform(-r, r, n_conn), output_activation)
         genomes = [first] + [first.with_weights(rng.uniform(-r, r, n_conn)) for _ in range(n - 1)]

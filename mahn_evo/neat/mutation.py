@@ -17,15 +17,13 @@ from .settings import NeatSettings
 __all__ = ["mutate", "mutate_weights", "add_node", "add_connection"]
 
 _JIGGLE_SCHEMES = (0, 1, 2)
-_PROPORTIONAL = {0: 0, 1: 1, 3: 2}  # scheme -> index into settings.weight_scheme_proportions
+_PROPORTIONAL = {0: 0, 1: 1, 3: 2}  # scheme -> index into settings.mutation.weight_scheme_proportions
 
 
 def mutate(genome: Genome, rng: np.random.Generator, settings: NeatSettings, tracker: InnovationTracker) -> Genome:
     """Return a child of ``genome`` with exactly one mutation applied."""
-    op = spin(
-        (settings.add_node_probability, settings.add_connection_probability, settings.mutate_weights_probability),
-        rng,
-    )
+    m = settings.mutation
+    op = spin((m.add_node_probability, m.add_connection_probability, m.mutate_weights_probability), rng)
     child: Genome | None = None
     if op == 0:
         child = add_node(genome, rng, settings, tracker)
@@ -45,18 +43,18 @@ def mutate_weights(genome: Genome, rng: np.random.Generator, settings: NeatSetti
     n = genome.n_connections
     if n == 0:
         return genome
-    scheme = spin(settings.weight_scheme_probabilities, rng)
+    scheme = spin(settings.mutation.weight_scheme_probabilities, rng)
     if scheme in _PROPORTIONAL:
-        p = settings.weight_scheme_proportions[_PROPORTIONAL[scheme]]
+        p = settings.mutation.weight_scheme_proportions[_PROPORTIONAL[scheme]]
         idx = np.flatnonzero(rng.random(n) < p)
         if idx.size == 0:
             idx = np.array([rng.integers(n)], dtype=np.int64)
     else:
         idx = np.array([rng.integers(n)], dtype=np.int64)
     w = genome.weight.copy()
-    lim = settings.weight_limit
+    lim = settings.mutation.weight_limit
     if scheme in _JIGGLE_SCHEMES:
-        j = settings.weight_jiggle
+        j = settings.mutation.weight_jiggle
         w[idx] = np.clip(w[idx] + rng.uniform(-j, j, idx.size), -lim, lim)
     else:
         w[idx] = rng.uniform(-lim, lim, idx.size)
@@ -69,7 +67,7 @@ def add_node(
     """Split a random connection a->b with a new hidden node n: add a->n (w=1) and n->b (old weight).
 
     The split connection is kept (a parallel path), as in the original, unless
-    ``settings.add_node_keeps_split_connection`` is False (then it is removed, as classic NEAT disables it).
+    ``settings.mutation.add_node_keeps_split_connection`` is False (then it is removed, as classic NEAT disables it).
     Splitting the same connection twice in
     one generation reuses the node id, its activation and both connection ids.  Returns None if there is no
     connection to split.
@@ -83,13 +81,13 @@ def add_node(
     b = int(genome.dst[k])
     rec = tracker.splits.get(split)
     if rec is None or rec[0] in genome.node_ids:
-        acts = settings.hidden_activations
+        acts = settings.mutation.hidden_activations
         act = acts[int(rng.integers(len(acts)))] if len(acts) > 1 else acts[0]
         rec = (tracker.new_id(), act, tracker.new_id(), tracker.new_id())
         tracker.splits.setdefault(split, rec)
     nid, act, cin, cout = rec
     keep = np.ones(n, dtype=bool)
-    if not settings.add_node_keeps_split_connection:
+    if not settings.mutation.add_node_keeps_split_connection:
         keep[k] = False
     return Genome(
         genome.nodes + (NodeGene(nid, "hidden", act),),
@@ -107,22 +105,22 @@ def add_connection(
     """Connect a random source to a random target not yet connected; None if every attempt hit an existing pair.
 
     Sources: every neuron except module-input dummies; targets: outputs and hidden neurons (original rules).
-    Recurrent links and self-loops are allowed unless ``settings.allow_recurrent`` is False.
+    Recurrent links and self-loops are allowed unless ``settings.mutation.allow_recurrent`` is False.
     """
     info = genome._info
     srcs, tgts = info.sources, info.targets
     if srcs.size == 0 or tgts.size == 0:
         return None
     existing = set(genome.pair_keys().tolist())
-    for _ in range(settings.add_connection_attempts):
+    for _ in range(settings.mutation.add_connection_attempts):
         a = int(srcs[rng.integers(srcs.size)])
         b = int(tgts[rng.integers(tgts.size)])
         if (a << 32) + b in existing:
             continue
-        if not settings.allow_recurrent and _creates_cycle(genome, a, b):
+        if not settings.mutation.allow_recurrent and _creates_cycle(genome, a, b):
             continue
         innov = tracker.connection_id(a, b)
-        r = settings.new_connection_weight_range
+        r = settings.mutation.new_connection_weight_range
         w = rng.uniform(-r, r)
         return Genome(
             genome.nodes,

@@ -127,7 +127,7 @@ def make_offspring(
     pools: list[list[int]] = []
     cums: list[np.ndarray] = []
     for sp in species:
-        pool = sp.members[: _pool_size(len(sp.members), settings.selection_proportion)]
+        pool = sp.members[: _pool_size(len(sp.members), settings.selection.selection_proportion)]
         pools.append(pool)
         cums.append(np.cumsum(fitness[pool]))
     all_pool = [i for p in pools for i in p]
@@ -138,7 +138,7 @@ def make_offspring(
     n_sex: list[int] = []
     for t, e in zip(targets.tolist(), elites.tolist()):
         off = t - e
-        a = min(off, max(1, int(round(off * settings.asexual_proportion)))) if off > 0 else 0
+        a = min(off, max(1, int(round(off * settings.reproduction.asexual_proportion)))) if off > 0 else 0
         n_asex.append(a)
         n_sex.append(off - a)
 
@@ -156,7 +156,7 @@ def make_offspring(
     for k, sp in enumerate(species):
         members = sp.members
         for _ in range(n_sex[k]):
-            if rng.random() < settings.interspecies_mating_probability:
+            if rng.random() < settings.reproduction.interspecies_mating_probability:
                 p1 = pools[k][spin_cumulative(cums[k], rng)]
                 p2 = all_pool[spin_cumulative(all_cum, rng)]
             elif len(members) == 1:
@@ -175,7 +175,8 @@ def make_offspring(
                     out.append(asexual(k))
                     continue
             child = crossover(genomes[p1], float(fitness[p1]), genomes[p2], float(fitness[p2]), rng, settings)
-            if settings.crossover_mutation_probability > 0.0 and rng.random() < settings.crossover_mutation_probability:
+            p_mutate = settings.reproduction.crossover_mutation_probability
+            if p_mutate > 0.0 and rng.random() < p_mutate:
                 child = mutate(child, rng, settings, tracker)
             out.append(Offspring(child, (sp.id, species_of[p2]) if species_of[p2] != sp.id else (sp.id,)))
     return out
@@ -192,12 +193,12 @@ def stagnation_adjusted_means(
     "recompute" every non-champion species now stagnant, with "sticky" every flagged one (see Population.tell)."""
     means = np.array([float(np.mean(fitness[sp.members])) for sp in species])
     for k, sp in enumerate(species):
-        if settings.stagnation_rule == "sticky":
+        if settings.selection.stagnation_rule == "sticky":
             stagnant = sp.culled
         else:
-            stagnant = k != champion and generation - sp.last_improvement > settings.stagnation_generations
+            stagnant = k != champion and generation - sp.last_improvement > settings.selection.stagnation_generations
         if stagnant:
-            means[k] *= settings.stagnation_penalty
+            means[k] *= settings.selection.stagnation_penalty
     if not np.any(means > 0):  # every species penalised to 0 cannot happen with a positive floor; guard anyway
         means = np.ones_like(means)
     return means

@@ -57,10 +57,10 @@ def compatibility_distance(a: Genome, b: Genome, settings: NeatSettings) -> floa
     excess = int(np.count_nonzero(a.innov > max_b)) + int(np.count_nonzero(b.innov > max_a))
     disjoint = a.n_connections + b.n_connections - 2 * m - excess
     wsum = float(np.sum(np.abs(a.weight[ia] - b.weight[ib]))) if m else 0.0
-    if settings.weight_difference_mean and m:
+    if settings.speciation.weight_difference_mean and m:
         wsum /= m
-    return (settings.disjoint_coefficient * disjoint + settings.excess_coefficient * excess
-            + settings.weight_coefficient * wsum)
+    return (settings.speciation.disjoint_coefficient * disjoint + settings.speciation.excess_coefficient * excess
+            + settings.speciation.weight_coefficient * wsum)
 
 
 @dataclass
@@ -120,7 +120,7 @@ class RepresentativeIndex:
         self._p = np.zeros((0, u), dtype=bool)
         self._n = np.zeros(0, dtype=np.int64)
         self._max = np.zeros(0, dtype=np.int64)
-        self._same_coeff = settings.disjoint_coefficient == settings.excess_coefficient
+        self._same_coeff = settings.speciation.disjoint_coefficient == settings.speciation.excess_coefficient
 
     def _grow(self) -> None:
         cap = max(16, 2 * self._cap)
@@ -157,19 +157,19 @@ class RepresentativeIndex:
         pk = self._p[:k, idx]
         m = pk.sum(axis=1)
         wsum = (np.abs(self._w[:k, idx] - g.weight) * pk).sum(axis=1)
-        if s.weight_difference_mean:
+        if s.speciation.weight_difference_mean:
             wsum = wsum / np.maximum(m, 1)
         n_g = g.n_connections
         nonmatch = n_g + self._n[:k] - 2 * m
         if self._same_coeff:
-            return s.disjoint_coefficient * nonmatch + s.weight_coefficient * wsum
+            return s.speciation.disjoint_coefficient * nonmatch + s.speciation.weight_coefficient * wsum
         max_g = int(g.innov[-1]) if n_g else -1
         excess_g = n_g - np.searchsorted(g.innov, self._max[:k], side="right")
         j0 = int(np.searchsorted(self.cols, max_g, side="right"))
         excess_r = self._p[:k, j0:].sum(axis=1)
         excess = excess_g + excess_r
-        return (s.disjoint_coefficient * (nonmatch - excess) + s.excess_coefficient * excess
-                + s.weight_coefficient * wsum)
+        return (s.speciation.disjoint_coefficient * (nonmatch - excess) + s.speciation.excess_coefficient * excess
+                + s.speciation.weight_coefficient * wsum)
 
 
 _MIX1 = np.uint64(0xBF58476D1CE4E5B9)
@@ -279,13 +279,13 @@ class ThresholdController:
             self.delta = 0.0
             return False
         if self.delta == 0.0:
-            self.delta = direction * max(settings.threshold_delta_min,
-                                         settings.threshold_delta_proportion * self.threshold)
+            self.delta = direction * max(settings.speciation.threshold_delta_min,
+                                         settings.speciation.threshold_delta_proportion * self.threshold)
         elif (self.delta > 0) == (direction > 0):
-            self.delta *= settings.threshold_delta_acceleration
+            self.delta *= settings.speciation.threshold_delta_acceleration
         else:
-            self.delta *= -settings.threshold_delta_deceleration
-        new = max(settings.threshold_floor, self.threshold + self.delta)
+            self.delta *= -settings.speciation.threshold_delta_deceleration
+        new = max(settings.speciation.threshold_floor, self.threshold + self.delta)
         changed = new != self.threshold
         self.threshold = new
         return changed

@@ -7,7 +7,7 @@ import json
 import numpy as np
 import pytest
 
-from mahn_evo.config import TrainConfig
+from mahn_evo.config import EvolutionConfig
 from mahn_evo.cppn import compile_cppn, compile_genome, compile_relax
 from mahn_evo.cppn.relax import relax_steps
 from mahn_evo.neat import Genome, NeatSettings, Population
@@ -90,9 +90,9 @@ def test_relax_lanes_give_each_query_exactly_its_own_relaxation(seed):
 
 def test_relax_needs_the_modules_evaluated():
     with pytest.raises(ValueError, match="relax.*evaluate_modules"):
-        TrainConfig(cppn_activation="relax", evaluate_modules=False)
+        EvolutionConfig(cppn_activation="relax", evaluate_modules=False)
     with pytest.raises(ValueError, match="cppn_activation"):
-        TrainConfig(cppn_activation="relaxed")
+        EvolutionConfig(cppn_activation="relaxed")
 
 
 # ------------------------------------------------------------------ species order
@@ -197,16 +197,16 @@ def test_sticky_rule_resumes_exactly():
 
 # ------------------------------------------------------------------ presets
 def test_presets_set_the_originals_fields_and_flags_still_override():
-    code = apply_preset(TrainConfig(), "iros2011-code")
+    code = apply_preset(EvolutionConfig(), "iros2011-code")
     assert (code.init, code.evaluate_modules, code.cppn_activation) == ("iros2011", False, "recursive")
     assert (code.neat.species_order, code.neat.stagnation_rule, code.neat.weight_coefficient) == \
         ("random", "sticky", 0.05)
-    paper = apply_preset(TrainConfig(), "iros2011-paper")
+    paper = apply_preset(EvolutionConfig(), "iros2011-paper")
     assert paper.init == "minimal" and paper.neat.weight_coefficient == 0.1
-    assert apply_preset(TrainConfig(), "iros2011-code").with_overrides(pop=50).neat.population_size == 50
+    assert apply_preset(EvolutionConfig(), "iros2011-code").with_overrides(pop=50).neat.population_size == 50
     with pytest.raises(ValueError, match="unknown preset"):
-        apply_preset(TrainConfig(), "iros2012")
-    multistep = apply_preset(TrainConfig(), "iros2011-multistep")
+        apply_preset(EvolutionConfig(), "iros2012")
+    multistep = apply_preset(EvolutionConfig(), "iros2011-multistep")
     assert (multistep.init, multistep.evaluate_modules, multistep.cppn_activation) == ("iros2011", True, "relax")
     assert (multistep.neat.species_order, multistep.neat.stagnation_rule) == (code.neat.species_order,
                                                                               code.neat.stagnation_rule)

@@ -9,7 +9,6 @@ import pytest
 
 from mahn_evo.neat import Genome, NeatSettings, Population, compatibility_distance
 from mahn_evo.neat.reproduction import top_two_targets
-from mahn_evo.neat.settings import LATER_FIELDS
 from mahn_evo.neat.speciation import RepresentativeIndex
 from mahn_evo.neat.xor import evaluate_xor, xor_settings, xor_settings_neat2002
 from tests.evo.helpers import random_genome
@@ -21,14 +20,16 @@ def _g(weights):
     return Genome(NODES, [4, 5, 6], [0, 1, 2], [3, 3, 3], weights)
 
 
-def test_later_fields_are_omitted_at_their_defaults():
-    """Checkpoints written before these settings existed must still compare equal (the trainer checks)."""
+def test_later_fields_round_trip_and_an_absent_one_means_its_default():
+    """Version-1 files left these settings out at their default (mahn_evo.migrate): absent means default."""
+    later = {"crossover_mutation_probability", "population_stagnation_generations", "weight_difference_mean",
+             "species_order", "stagnation_rule"}
     d = NeatSettings().to_dict()
-    assert not LATER_FIELDS & set(d)
+    assert NeatSettings.from_mapping({k: v for k, v in d.items() if k not in later}) == NeatSettings()
     s = NeatSettings(crossover_mutation_probability=0.8, population_stagnation_generations=20,
                      weight_difference_mean=True, species_order="random", stagnation_rule="sticky")
     back = NeatSettings.from_mapping(json.loads(json.dumps(s.to_dict())))
-    assert back == s and LATER_FIELDS <= set(s.to_dict())
+    assert back == s and later <= set(s.to_dict())
     with pytest.raises(ValueError, match="crossover_mutation_probability"):
         NeatSettings(crossover_mutation_probability=1.5)
     with pytest.raises(ValueError, match="population_stagnation_generations"):

@@ -46,11 +46,13 @@ def test_born_is_saved_and_checked():
     with pytest.raises(ValueError, match="born"):
         Population.from_dict(bad)
     no_ages = {k: v for k, v in d.items() if k != "born"}
+    with pytest.raises(ValueError, match="missing.*born"):
+        Population.from_dict(no_ages)  # the current format must have them
     with pytest.raises(ValueError, match="no genome ages.*youngest"):
-        Population.from_dict(no_ages)
+        Population.from_dict({**no_ages, "version": 1})  # format 1 may lack them, but only under the old rules
     no_parents = {k: v for k, v in d.items() if k != "parents"}
     with pytest.raises(ValueError, match="no parent species.*respeciate_parents_first"):
-        Population.from_dict(no_parents)
+        Population.from_dict({**no_parents, "version": 1})
 
 
 def test_a_state_saved_before_the_settings_existed_continues_with_the_old_rules():
@@ -58,7 +60,7 @@ def test_a_state_saved_before_the_settings_existed_continues_with_the_old_rules(
                             kind="iros2011", n_inputs=6)
     pop.tell(np.full(40, 1.0))
     d = json.loads(json.dumps(pop.to_dict()))
-    legacy = {k: v for k, v in d.items() if k not in ("born", "parents")}
+    legacy = {k: v for k, v in d.items() if k not in ("born", "parents")} | {"version": 1}
     legacy["settings"] = {k: v for k, v in d["settings"].items() if k not in ("tie_break", "respeciate_parents_first")}
     old, new = Population.from_dict(legacy), Population.from_dict(d)
     assert old.settings.tie_break == "oldest" and not old.settings.respeciate_parents_first

@@ -49,7 +49,8 @@ def test_a_plan_saved_before_the_tie_rule_keeps_its_rule(tmp_path):
     ExperimentPlan(**SMALL).save_or_check(tmp_path)
     saved = json.loads((tmp_path / "experiment.json").read_text())
     assert saved["neat"] == {"tie_break": "youngest", "respeciate_parents_first": True}  # a plan names its rules
-    saved["neat"] = {}  # as written before the rule was recorded
+    saved["neat"] = {}  # as written before the rule was recorded (format version 1)
+    saved["version"] = 1
     (tmp_path / "experiment.json").write_text(json.dumps(saved))
     old = ExperimentPlan.load(tmp_path)
     neat = old.train_config("situational", 5).neat

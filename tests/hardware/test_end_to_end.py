@@ -68,8 +68,8 @@ def test_deploy_runs_standard_and_situational_teams_and_logs_every_tick(tmp_path
     champ.write_text(json.dumps({"kind": "champion", "map": "plus", "controllers": team.to_dict()}))
     log = tmp_path / "run.csv"
     ticks = []
-    result = deploy(champ, emulate=True, clock=VirtualClock(), log_path=log, max_cycles=60, signal_tick=30,
-                    on_tick=lambda t, infos: ticks.append(t))
+    result = deploy(champ, emulate=True, clock=VirtualClock(), log_path=log,
+                    env_kwargs={"max_cycles": 60, "signal_tick": 30}, on_tick=lambda t, infos: ticks.append(t))
     assert result.ticks == 60 and ticks == list(range(1, 61))
     assert result.mode == ("situational" if n_brains == 2 else "standard")
     assert result.mean_period == pytest.approx(0.033) and result.team_fitness is not None

@@ -194,8 +194,8 @@ def test_deploy_waits_until_an_unconfirmed_stop_is_confirmed(tmp_path, capsys, m
 
     with pytest.raises(RobotTimeout, match="robot_1"), warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        deploy(champ, emu.ports, clock=vclock, placement="none", timeout=0.2, attempts=2, on_tick=on_tick,
-               log_path=tmp_path / "log.csv", env_kwargs={"catch_sigterm": False})
+        deploy(champ, emu.ports, clock=vclock, on_tick=on_tick, log_path=tmp_path / "log.csv",
+               env_kwargs={"placement": "none", "retry": RetryPolicy(timeout=0.2, attempts=2), "catch_sigterm": False})
     assert emu.world.stopped(1) and last_command(emu, 1) == "D,l0,l0"  # deploy waited for the real stop
     err = capsys.readouterr().err
     assert "stop of ['robot_1'] is not confirmed" in err and "stop of ['robot_1'] confirmed" in err

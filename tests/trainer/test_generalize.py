@@ -4,13 +4,13 @@ import json
 import pytest
 
 from mahn_evo.cli import main
-from mahn_evo.config import TrainConfig
+from mahn_evo.config import EvolutionConfig
 from mahn_evo.generalize import generalize
 from mahn_evo.trainer import train
 
 
 def test_ranks_archived_solutions(tmp_path):
-    train(TrainConfig(generations=3, seed=2).with_overrides(pop=24), tmp_path)
+    train(EvolutionConfig(generations=3, seed=2).with_overrides(pop=24), tmp_path)
     (tmp_path / "archive").mkdir()
     champ = json.loads((tmp_path / "champion.json").read_text())
     for g in (1, 2):  # two archived "solutions": the champion and a copy with zeroed output biases

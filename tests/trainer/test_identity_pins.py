@@ -6,8 +6,8 @@ for a small population: the paper's seed genome, the minimal one, and noisy mult
 """
 import pytest
 
-from mahn_evo.config import TrainConfig
-from mahn_evo.evaluate import task_params
+from mahn_evo.config import EvolutionConfig
+from mahn_evo.task_setup import task_params
 from mahn_evo.trainer import Trainer
 
 PINNED = {
@@ -23,7 +23,7 @@ PINNED = {
 
 @pytest.mark.parametrize("init,noise,episodes", list(PINNED))
 def test_training_reproduces_dafc457_exactly(tmp_path, init, noise, episodes):
-    cfg = TrainConfig(init=init, episodes=episodes, generations=3, seed=5,
+    cfg = EvolutionConfig(init=init, episodes=episodes, generations=3, seed=5,
                       task=task_params(noise)).with_overrides(pop=40)
     tr = Trainer(cfg, tmp_path)
     got = [(p.best_fitness, p.mean_fitness) for p in (tr.step() for _ in range(3))]

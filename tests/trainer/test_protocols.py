@@ -58,10 +58,10 @@ def test_situational_controller_restarts_patrol_brain_when_signal_cleared():
 
 
 def test_cli_sequential(tmp_path, capsys):
-    from mahn_evo.config import TrainConfig
+    from mahn_evo.config import EvolutionConfig
     from mahn_evo.trainer import train
 
-    train(TrainConfig(generations=1, seed=0).with_overrides(pop=10), tmp_path)
+    train(EvolutionConfig(generations=1, seed=0).with_overrides(pop=10), tmp_path)
     assert main(["eval", str(tmp_path / "champion.json"), "--protocol", "sequential", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["protocol"] == "sequential" and len(out["solved"]) == 1
@@ -74,10 +74,10 @@ def test_sequential_frames_and_cli_video_and_plot(tmp_path):
     assert len(frames) == len(res.trajectory) // 20 and frames[0].ndim == 3 and frames[0].shape[2] == 3
     assert not np.array_equal(frames[0], frames[-1])  # the robots moved
 
-    from mahn_evo.config import TrainConfig
+    from mahn_evo.config import EvolutionConfig
     from mahn_evo.trainer import train
 
-    train(TrainConfig(generations=1, seed=0).with_overrides(pop=10), tmp_path)
+    train(EvolutionConfig(generations=1, seed=0).with_overrides(pop=10), tmp_path)
     gif, png = tmp_path / "seq.gif", tmp_path / "seq.png"
     assert main(["eval", str(tmp_path / "champion.json"), "--protocol", "sequential", "--video", str(gif),
                  "--plot", str(png)]) == 0

@@ -9,7 +9,7 @@ import time
 
 import pytest
 
-from mahn_evo.config import TrainConfig
+from mahn_evo.config import EvolutionConfig
 from mahn_evo.trainer import Trainer
 
 ARGS = ["--generations", "8", "--pop", "30", "--seed", "5", "--quiet"]
@@ -50,7 +50,7 @@ def test_kill_then_resume_matches_uninterrupted_run(tmp_path):
 
 def test_archive_keeps_improving_solutions(tmp_path, monkeypatch):
     """Solved teams are archived when they beat the last archived one (fitness > 100 marks them solved)."""
-    tr = Trainer(TrainConfig(generations=4, seed=0).with_overrides(pop=20), tmp_path)
+    tr = Trainer(EvolutionConfig(generations=4, seed=0).with_overrides(pop=20), tmp_path)
     real_score = tr.evaluator.score
     schedule = iter([105.0, 104.0, 110.0, 110.0])
 

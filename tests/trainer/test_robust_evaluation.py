@@ -6,12 +6,12 @@ import csv
 import numpy as np
 import pytest
 
-from mahn_evo.config import TrainConfig
-from mahn_evo.evaluator import TeamEvaluator
+from mahn_evo.config import EvolutionConfig
 from mahn_evo.neat import NeatSettings, Population
+from mahn_evo.team_evaluator import TeamEvaluator
 from mahn_evo.trainer import Trainer, train
 
-NOISY = TrainConfig().with_noise("generalization").task
+NOISY = EvolutionConfig().with_noise("generalization").task
 
 
 def _genomes(n=12, seed=4):
@@ -48,7 +48,7 @@ def test_aggregates_order_min_quantile_mean():
 def _robust(**kw):
     base = dict(generations=4, seed=5, episodes=2, noise_draws="per_generation", aggregate="min")
     base.update(kw)
-    return TrainConfig(**base).with_overrides(pop=24).with_noise("generalization")
+    return EvolutionConfig(**base).with_overrides(pop=24).with_noise("generalization")
 
 
 def test_robust_training_is_deterministic_and_resumes_bit_identically(tmp_path):
@@ -66,8 +66,8 @@ def test_robust_training_is_deterministic_and_resumes_bit_identically(tmp_path):
 def test_noise_preset_is_saved_in_the_run_config(tmp_path):
     cfg = _robust()
     assert cfg.task.sensor_noise == 5.0 and cfg.task.effector_noise == 10.0
-    assert TrainConfig.from_mapping(cfg.to_dict()) == cfg
-    assert cfg.with_noise("none").task == TrainConfig().task
+    assert EvolutionConfig.from_mapping(cfg.to_dict()) == cfg
+    assert cfg.with_noise("none").task == EvolutionConfig().task
 
 
 def test_a_noise_free_episode_joins_the_noisy_ones():
@@ -79,7 +79,7 @@ def test_a_noise_free_episode_joins_the_noisy_ones():
     np.testing.assert_allclose(both.evaluate(g, 3).fitness, (2 * noisy.fitness + clean.fitness) / 3, rtol=1e-12)
     low = TeamEvaluator("situational", noise_free_episode=True, aggregate="min", **kw).evaluate(g, 3).fitness
     assert np.all(low <= clean.fitness) and np.all(low <= noisy.fitness + 1e-9)
-    cfg = TrainConfig(noise_free_episode=True)
-    assert TrainConfig.from_mapping(cfg.to_dict()).noise_free_episode is True
+    cfg = EvolutionConfig(noise_free_episode=True)
+    assert EvolutionConfig.from_mapping(cfg.to_dict()).noise_free_episode is True
     with pytest.raises(TypeError, match="noise_free_episode"):
-        TrainConfig(noise_free_episode="yes")
+        EvolutionConfig(noise_free_episode="yes")

@@ -10,7 +10,7 @@ import pytest
 
 from mahn_evo.champion import Champion
 from mahn_evo.cli import main
-from mahn_evo.config import TrainConfig
+from mahn_evo.config import EvolutionConfig
 from mahn_evo.trainer import Trainer, train
 
 
@@ -18,7 +18,7 @@ def small(**kw):
     base = dict(generations=3, init="minimal", seed=3)
     base.update(kw)
     pop = base.pop("pop", 16)
-    return TrainConfig(**base).with_overrides(pop=pop)
+    return EvolutionConfig(**base).with_overrides(pop=pop)
 
 
 def _log(path):
@@ -47,12 +47,14 @@ def test_one_changed_digit_in_a_checkpoint_is_refused_naming_the_file(tmp_path, 
 
 
 def test_a_checkpoint_without_checksum_still_resumes_bit_identically(tmp_path):
-    """Checkpoints written before checksums existed (no sha256 key) resume as before."""
+    """Checkpoints written before checksums existed (no sha256 key, format version 1) resume as before; from
+    version 2 on the checksum is required (tests/trainer/test_migrate.py)."""
     train(small(generations=4), tmp_path / "full")
     train(small(generations=2), tmp_path / "old")
     ck = json.loads((tmp_path / "old" / "checkpoint.json").read_text())
     assert "sha256" in ck
     del ck["sha256"]
+    ck["version"] = ck["population"]["version"] = 1
     (tmp_path / "old" / "checkpoint.json").write_text(json.dumps(ck, separators=(",", ":")))
     train(small(generations=4), tmp_path / "old", resume=True)
     assert _log(tmp_path / "old") == _log(tmp_path / "full")
@@ -66,6 +68,7 @@ def test_malformed_checkpoints_give_a_message_not_a_traceback(tmp_path, damage):
     train(small(generations=1), tmp_path)
     ck = json.loads((tmp_path / "checkpoint.json").read_text())
     del ck["sha256"]  # as an old file, so the field checks (not the checksum) must catch it
+    ck["version"] = 1
     damage(ck)
     (tmp_path / "checkpoint.json").write_text(json.dumps(ck))
     with pytest.raises(ValueError, match=r"checkpoint\.json"):
@@ -76,7 +79,8 @@ def test_population_size_edited_in_checkpoint_and_config_is_refused(tmp_path):
     train(small(generations=1), tmp_path)
     for name in ("checkpoint.json", "config.json"):
         data = json.loads((tmp_path / name).read_text())
-        data.pop("sha256", None)
+        if data.pop("sha256", None) is not None:
+            data["version"] = 1  # a checkpoint without its checksum is an old file
         (data["config"] if name == "checkpoint.json" else data)["neat"]["population_size"] = 40
         (tmp_path / name).write_text(json.dumps(data))
     with pytest.raises(ValueError, match=r"population_size = 16 in the state"):

@@ -8,7 +8,7 @@ from mahn_envs import BatchSim, patrol_return_v0
 from mahn_envs.policy import ControllerPolicy
 from mahn_evo.champion import Champion
 from mahn_evo.cli import main
-from mahn_evo.config import TrainConfig
+from mahn_evo.config import EvolutionConfig
 from mahn_evo.trainer import Trainer, train
 
 
@@ -16,7 +16,7 @@ def small(**kw):
     base = dict(generations=4, init="minimal", seed=3)
     base.update(kw)
     pop = base.pop("pop", 24)
-    return TrainConfig(**base).with_overrides(pop=pop)
+    return EvolutionConfig(**base).with_overrides(pop=pop)
 
 
 def _log(path):
@@ -126,9 +126,9 @@ def test_default_init_makes_progress():
     must leave it within a small budget."""
     import tempfile
 
-    assert (TrainConfig().init, TrainConfig().evaluate_modules) == ("iros2011", True)
+    assert (EvolutionConfig().init, EvolutionConfig().evaluate_modules) == ("iros2011", True)
     with tempfile.TemporaryDirectory() as d:
-        t = Trainer(TrainConfig(generations=15, seed=2).with_overrides(pop=80), d)
+        t = Trainer(EvolutionConfig(generations=15, seed=2).with_overrides(pop=80), d)
         t.run()
     assert max(r[4] for r in t.rows) > 2.5
 
@@ -164,33 +164,3 @@ def test_atomic_writes_leave_no_temp_files_and_normal_permissions(tmp_path):
     umask = os.umask(0)
     os.umask(umask)
     assert path.stat().st_mode & 0o777 == 0o666 & ~umask
-
-
-def _strip_tie_rule(run):
-    """Make a run folder look as if written before the LEGACY_VALUES settings, genome ages and parents existed."""
-    ck = json.loads((run / "checkpoint.json").read_text())
-    for key in ("tie_break", "respeciate_parents_first"):
-        del ck["config"]["neat"][key], ck["population"]["settings"][key]
-    del ck["population"]["born"], ck["population"]["parents"]
-    del ck["sha256"]  # nor content checksums
-    (run / "checkpoint.json").write_text(json.dumps(ck))
-    cfg = json.loads((run / "config.json").read_text())
-    del cfg["neat"]["tie_break"], cfg["neat"]["respeciate_parents_first"]
-    (run / "config.json").write_text(json.dumps(cfg))
-
-
-def test_a_run_saved_before_the_tie_rule_existed_resumes_with_its_rule(tmp_path, capsys):
-    from mahn_evo.neat import NeatSettings
-
-    def oldest(generations):
-        return small(generations=generations, neat=NeatSettings(tie_break="oldest", respeciate_parents_first=False))
-
-    train(oldest(4), tmp_path / "full")
-    train(oldest(2), tmp_path / "old")
-    _strip_tie_rule(tmp_path / "old")
-    with pytest.raises(ValueError, match=r"neat.tie_break.*the run was made with .*neat.tie_break = 'oldest'"):
-        Trainer(small(generations=4), tmp_path / "old", resume=True)  # today's default rule: refused, named
-    # the CLI resumes from the saved config, read with the values it was run with
-    assert main(["train", "--out", str(tmp_path / "old"), "--resume", "--generations", "4", "--quiet"]) == 0
-    drop = lambda rows: [{k: v for k, v in r.items() if k != "seconds"} for r in rows]  # noqa: E731
-    assert drop(_log(tmp_path / "old")) == drop(_log(tmp_path / "full"))

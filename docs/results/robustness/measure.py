@@ -11,14 +11,16 @@ import json
 import sys
 from pathlib import Path
 
+from mahn_envs.hardware import RetryPolicy
 from mahn_envs.hardware.clock import VirtualClock
 from mahn_envs.policy import ControllerPolicy
 from mahn_evo.champion import Champion
 from mahn_evo.deploy import deploy
-from mahn_evo.evaluate import evaluate_champion, task_params
+from mahn_evo.eval_champion import evaluate_champion
 from mahn_evo.files import atomic_write_json
 from mahn_evo.margins import decision_margins
 from mahn_evo.protocols import sequential
+from mahn_evo.task_setup import task_params
 
 NOISY_EPISODES = 20
 SEQUENTIAL_EPISODES = 10
@@ -36,8 +38,8 @@ def measure(run: Path) -> dict:
     seq = sequential(policy, map="plus", params=noisy, episodes=SEQUENTIAL_EPISODES)
     emulated = []
     for s in EMULATOR_SEEDS:
-        res = deploy(path, emulate=True, emulator_seed=s, clock=VirtualClock(), timeout=2.0,
-                     log_path=run / f"emulator_s{s}.csv")
+        res = deploy(path, emulate=True, emulator_seed=s, clock=VirtualClock(),
+                     env_kwargs={"retry": RetryPolicy(timeout=2.0)}, log_path=run / f"emulator_s{s}.csv")
         emulated.append(res.team_fitness)
     return {"run": run.name, "training_fitness": champ.fitness, "generation": champ.generation,
             "noise_free_fitness": clean["fitness"], "noisy_mean_fitness": rough["fitness"],

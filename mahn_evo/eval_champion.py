@@ -1,4 +1,4 @@
-"""Score a saved team (`mahn-evo eval`): any map, either engine, noise, several episodes, optional video.
+"""Score a saved champion (`mahn-evo eval`): any map, either engine, noise, several episodes, optional video.
 
 Kinematic episodes run in the batch core; pymunk episodes (and videos) run through the PettingZoo env with a
 ControllerPolicy.  Both paths share the task code, so the same team scores the same (tested to 1e-9).
@@ -10,33 +10,11 @@ from typing import Any
 
 import numpy as np
 
-from mahn_envs import patrol_return_v0
 from mahn_envs.core import BatchSim, TaskParams
 from mahn_envs.policy import ControllerPolicy
 
 from .champion import Champion
-
-#: Noise of the generalisation test (issue: sensor noise, stochastic turning and locomotion, small start
-#: perturbations).  Levels are percentages / cm / rad as documented in TaskParams.
-NOISE_PRESETS: dict[str, dict[str, float]] = {
-    "none": {},
-    "generalization": {"sensor_noise": 5.0, "effector_noise": 10.0, "heading_noise": 0.005,
-                       "start_jitter_xy": 2.0, "start_jitter_heading": 0.1},
-}
-
-
-def task_env(map: str, params: TaskParams, engine: str = "kinematic", render_mode: str | None = None):
-    """The PettingZoo env of `map` with the task settings of `params` (its fitness sampling is the env's own)."""
-    return patrol_return_v0.parallel_env(map=map, engine=engine, render_mode=render_mode,
-                                         **{k: v for k, v in params.to_dict().items() if k != "sample_period"})
-
-
-def task_params(noise: str = "none", **overrides: Any) -> TaskParams:
-    if noise not in NOISE_PRESETS:
-        raise ValueError(f"unknown noise preset {noise!r}; choose one of {sorted(NOISE_PRESETS)}")
-    kw: dict[str, Any] = dict(NOISE_PRESETS[noise])
-    kw.update({k: v for k, v in overrides.items() if v is not None})
-    return TaskParams(**kw)
+from .task_setup import task_env
 
 
 def evaluate_champion(champion: Champion | str | Path, map: str = "plus", engine: str = "kinematic",
