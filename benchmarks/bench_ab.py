@@ -5,7 +5,7 @@ work, interleaved, several times, and the fastest run of each is compared:
 
   controllers  whole episodes with controllers in the compiled loop (the trainer's evaluation), a
                population-sized batch: random teams (--teams random) or the published situational champions
-               (--teams champions, docs/results/experiment/champions, evolved behaviour)
+               (--teams champions, docs/results/experiment_mahn_0.1/champions, evolved behaviour)
   random       whole episodes of a random team (the core alone: sensing, motion, fitness)
   step         BatchSim.step of 16 episodes tick by tick (the RL vector env's path)
   env          the PettingZoo parallel env, kinematic engine, step by step (users' path)
@@ -53,7 +53,7 @@ def champion_teams(n: int) -> TeamControllers:
     """The published situational champions, repeated to n teams."""
     from mahn_evo.champion import Champion
 
-    paths = sorted(glob.glob(os.path.join(ROOT, "docs", "results", "experiment", "champions", "situational_*.json")))
+    paths = sorted(glob.glob(os.path.join(ROOT, "docs", "results", "experiment_mahn_0.1", "champions", "situational_*.json")))
     teams = [Champion.load(p).controllers for p in paths]
     return TeamControllers(*(np.stack([getattr(teams[i % len(teams)], f) for i in range(n)]) for f in FIELDS))
 
