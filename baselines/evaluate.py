@@ -17,8 +17,6 @@ from .policy import SB3TeamPolicy
 from .protocols import TeamPolicy, run_protocol
 from .train import EVAL_MAPS, load_config
 
-PROTOCOL_NAMES = ("training", "sequential")
-
 
 def model_path(run_dir: str | Path, which: str = "best") -> Path:
     """`best` (best training-map fitness seen during training; falls back to final) or `final`."""

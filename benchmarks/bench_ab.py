@@ -53,7 +53,8 @@ def champion_teams(n: int) -> TeamControllers:
     """The published situational champions, repeated to n teams."""
     from mahn_evo.champion import Champion
 
-    paths = sorted(glob.glob(os.path.join(ROOT, "docs", "results", "experiment_mahn_0.1", "champions", "situational_*.json")))
+    published = os.path.join(ROOT, "docs", "results", "experiment_mahn_0.1", "champions")
+    paths = sorted(glob.glob(os.path.join(published, "situational_*.json")))
     teams = [Champion.load(p).controllers for p in paths]
     return TeamControllers(*(np.stack([getattr(teams[i % len(teams)], f) for i in range(n)]) for f in FIELDS))
 

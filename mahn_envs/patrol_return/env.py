@@ -22,7 +22,9 @@ from ..engines import make_engine
 from ..khepera import DEFAULT_MODEL, KheperaModel
 from ..maps import World, load_map
 
+#: What each discrete action does (its index is the action), written once for error messages and users.
 ACTION_MEANINGS = ("left", "forward", "right")
+_ACTIONS_TEXT = ", ".join(f"{k} ({m})" for k, m in enumerate(ACTION_MEANINGS))
 
 
 def agent_names(n: int) -> list[str]:
@@ -40,11 +42,11 @@ def coerce_action(agent: str, value: Any) -> int:
     if isinstance(value, np.ndarray) and value.shape == ():
         value = value.item()
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Integral):
-        raise ValueError(f"action for {agent!r} must be an integer 0 (left), 1 (forward) or 2 (right), "
+        raise ValueError(f"action for {agent!r} must be an integer {_ACTIONS_TEXT}, "
                          f"got {value!r} of type {type(value).__name__}")
     v = int(value)
-    if not 0 <= v <= 2:
-        raise ValueError(f"action for {agent!r} must be 0 (left), 1 (forward) or 2 (right), got {v}")
+    if not 0 <= v < len(ACTION_MEANINGS):
+        raise ValueError(f"action for {agent!r} must be {_ACTIONS_TEXT}, got {v}")
     return v
 
 
@@ -250,10 +252,6 @@ class PatrolReturnEnv(ParallelEnv):
         if self._renderer is not None:
             self._renderer.close()
             self._renderer = None
-
-
-def raw_parallel_env(**kwargs) -> PatrolReturnEnv:
-    return PatrolReturnEnv(**kwargs)
 
 
 def parallel_env(**kwargs) -> PatrolReturnEnv:

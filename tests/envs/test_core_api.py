@@ -24,7 +24,9 @@ from mahn_envs.core.api import NO_TURN, TURN_LEFT, TURN_RIGHT
 from mahn_envs.khepera import DEFAULT_MODEL
 from mahn_envs.patrol_return.env import agent_names, agent_policy_coordinates
 
-CHAMPIONS = sorted((Path(__file__).parents[2] / "docs" / "results" / "experiment_mahn_0.1" / "champions").glob("*.json"))
+#: mahn 0.1's published champions, whose exact fitness is pinned
+PUBLISHED = Path(__file__).parents[2] / "docs" / "results" / "experiment_mahn_0.1" / "champions"
+CHAMPIONS = sorted(PUBLISHED.glob("*.json"))
 
 
 def _champions():
