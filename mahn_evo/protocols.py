@@ -20,10 +20,8 @@ import numpy as np
 
 from mahn_envs import patrol_return_v0
 from mahn_envs.core import TaskParams
+from mahn_envs.core.api import HOME_REACHED, POST_REACHED, manhattan
 from mahn_envs.core.params import ORIGINAL_MAX_TICKS
-
-HOME_REACHED = 20.0  # Manhattan, as the fitness's reachGoal
-POST_REACHED = 15.0  # Manhattan, as the fitness's allClose
 
 
 @dataclass
@@ -65,10 +63,6 @@ class SequentialResult:
         d = {"success": self.success, "stages_completed": self.stages_completed, "score": self.score,
              "ticks": self.ticks, "robots": [asdict(r) for r in self.robots]}
         return d
-
-
-def _manhattan(p, q) -> float:
-    return abs(p[0] - q[0]) + abs(p[1] - q[1])
 
 
 class _Runner:
@@ -134,7 +128,7 @@ def sequential_episode(policy, map: str = "plus", params: TaskParams | None = No
             break
     for k, rec in enumerate(records):
         p = run.history[-1][k]
-        d = [_manhattan(p, q) for q in world.pois]
+        d = [manhattan(p, q) for q in world.pois]
         rec.post = int(np.argmin(d))
         rec.reached_post = bool(d[rec.post] < POST_REACHED)
     posts = [r.post for r in records if r.reached_post]
@@ -153,7 +147,7 @@ def sequential_episode(policy, map: str = "plus", params: TaskParams | None = No
         env.call_home(agent)
         for _ in range(s.return_ticks):
             run.tick()
-            if _manhattan(run.history[-1][k], home) <= HOME_REACHED:
+            if manhattan(run.history[-1][k], home) <= HOME_REACHED:
                 rec.returned_home = True
                 break
         env.clear_signal(agent)
@@ -167,7 +161,7 @@ def sequential_episode(policy, map: str = "plus", params: TaskParams | None = No
         for _ in range(s.out_ticks):
             run.tick()
             if rec.post is not None and run.stopped(k) and \
-                    _manhattan(run.history[-1][k], world.pois[rec.post]) < POST_REACHED:
+                    manhattan(run.history[-1][k], world.pois[rec.post]) < POST_REACHED:
                 rec.went_back_out = True
                 break
     stages = sum(int(r.reached_post) + int(r.returned_home) + int(r.went_back_out) for r in records)

@@ -251,5 +251,16 @@ class ScoreKeeper:
         return float(fit), bool(solved)
 
 
-__all__ = ["Arena", "ScoreKeeper", "encode_inputs", "policy_coordinates", "readings_from_ranges", "steer",
-           "TURN_LEFT", "NO_TURN", "TURN_RIGHT"]
+#: A robot is home within this Manhattan distance of the home point (the fitness's reachGoal).
+HOME_REACHED = T.HOME_REACHED
+#: A post counts as covered within this Manhattan distance (the fitness's allClose).
+POST_REACHED = T.POI_CLOSE
+
+
+def manhattan(p: Sequence[float], q: Sequence[float]) -> float:
+    """|px - qx| + |py - qy|: the distance every radius of the task (home, posts) is measured in."""
+    return float(T._manhattan(float(p[0]), float(p[1]), float(q[0]), float(q[1])))
+
+
+__all__ = ["Arena", "ScoreKeeper", "encode_inputs", "manhattan", "policy_coordinates", "readings_from_ranges",
+           "steer", "HOME_REACHED", "POST_REACHED", "TURN_LEFT", "NO_TURN", "TURN_RIGHT"]

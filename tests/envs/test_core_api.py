@@ -194,3 +194,11 @@ def test_policy_coordinates_are_the_substrates(n):
     with pytest.raises(ValueError, match="n_robots"):
         policy_coordinates(0)
 
+
+
+def test_the_task_radii_and_distance_are_the_cores():
+    """The protocols measure home and posts with the fitness's own rule (Manhattan, radii 20 and 15)."""
+    from mahn_envs.core import task
+    from mahn_envs.core.api import HOME_REACHED, POST_REACHED, manhattan
+    assert (HOME_REACHED, POST_REACHED) == (task.HOME_REACHED, task.POI_CLOSE) == (20.0, 15.0)
+    assert manhattan((1.0, 2.0), (4.0, -2.5)) == 7.5
