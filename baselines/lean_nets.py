@@ -6,11 +6,13 @@ ticks from a stored hidden state), so what is trained is exactly what acted.
 """
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 
 import numpy as np
 import torch
 from torch import nn
+
+from mahn_envs.team_policy import DictActFromBatch
 
 from .lean_config import LeanConfig
 from .vec_env import N_SENSOR_INPUTS, slot_observations
@@ -103,7 +105,7 @@ class FrameStack:
         return self.buf
 
 
-class LeanTeamPolicy:
+class LeanTeamPolicy(DictActFromBatch):
     """A trained actor as a team policy (`reset(n_episodes)`, `act_batch(obs (B, R, 7))`, and the PettingZoo
     dict form `act`), so the protocols that score evolved teams score it too.  Greedy (argmax) by default;
     the GRU's hidden state is carried from tick to tick and cleared by `reset`."""
@@ -148,14 +150,6 @@ class LeanTeamPolicy:
         else:
             a = sample_actions(torch.softmax(logits, dim=1).numpy(), self.rng)
         return a.astype(np.int64).reshape(B, R)
-
-    def act(self, observations: Mapping[str, np.ndarray]) -> dict[str, int]:
-        obs = np.zeros((1, self.n_robots, N_SENSOR_INPUTS), dtype=np.float32)
-        for r, agent in enumerate(self.agents):
-            if agent in observations:
-                obs[0, r] = observations[agent]
-        actions = self.act_batch(obs)[0]
-        return {agent: int(actions[r]) for r, agent in enumerate(self.agents) if agent in observations}
 
 
 def sample_actions(probs: np.ndarray, rng: np.random.Generator) -> np.ndarray:

@@ -7,15 +7,17 @@ scored by one protocol implementation.
 """
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
 
+from mahn_envs.team_policy import DictActFromBatch
+
 from .vec_env import slot_observations
 
 
-class SB3TeamPolicy:
+class SB3TeamPolicy(DictActFromBatch):
     """Shared-parameter SB3 policy acting for every robot; keeps LSTM state for recurrent models."""
 
     def __init__(self, model: Any, n_robots: int = 3, deterministic: bool = True,
@@ -43,12 +45,3 @@ class SB3TeamPolicy:
                                                   deterministic=self.deterministic)
         self._episode_start = np.zeros(B * R, dtype=bool)
         return np.asarray(actions, dtype=np.int64).reshape(B, R)
-
-    def act(self, observations: Mapping[str, np.ndarray]) -> dict[str, int]:
-        """PettingZoo-dict form for one episode (agents missing from the dict, e.g. finished, are skipped)."""
-        obs = np.zeros((1, self.n_robots, 7), dtype=np.float32)
-        for r, agent in enumerate(self.agents):
-            if agent in observations:
-                obs[0, r] = observations[agent]
-        actions = self.act_batch(obs)[0]
-        return {agent: int(actions[r]) for r, agent in enumerate(self.agents) if agent in observations}

@@ -3,25 +3,21 @@
 `training` is the protocol evolution trains on (all robots signalled at tick `signal_tick`), run here on the
 batch core so B episodes go in lock-step.  `sequential` (the paper's real-world protocol: robots called home
 one at a time, robots see and bump each other, pymunk engine) is owned by `mahn_evo.protocols`; we delegate to
-it so RL and evolution are scored by the same code, and fail with a clear message until it exists.
-Register more with `register_protocol`.
+it so RL and evolution are scored by the same code.  Every team (evolved, RL, scripted on the training protocol)
+implements :class:`mahn_envs.team_policy.TeamPolicy`.  Register more protocols with `register_protocol`.
 """
 from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any, Protocol
+from typing import Any
 
 import numpy as np
 
 from mahn_envs.core.batch import BatchSim
 from mahn_envs.core.params import TaskParams
-
-
-class TeamPolicy(Protocol):
-    def reset(self, n_episodes: int = 1) -> None: ...
-
-    def act_batch(self, obs: np.ndarray) -> np.ndarray: ...
+from mahn_envs.team_policy import TeamPolicy
+from mahn_evo import protocols as evo_protocols
 
 
 @dataclass
@@ -55,23 +51,9 @@ def training_protocol(policy: TeamPolicy, map: str, params: TaskParams, episodes
 
 
 def sequential_protocol(policy: TeamPolicy, map: str, params: TaskParams, episodes: int, seed: int) -> Scores:
-    """Delegates to `mahn_evo.protocols.sequential(policy, map=, params=, episodes=, seed=)`.
-
-    The callee gets a policy with `reset()` and `act({agent: obs}) -> {agent: action}` (the interface of
-    `mahn_envs.policy.ControllerPolicy`) and returns per-episode fitness and solved, either as an object with
-    `fitness` / `solved` attributes or as a dict with those keys.
-    """
-    try:
-        from mahn_evo import protocols as evo_protocols  # type: ignore[attr-defined]
-    except ImportError as exc:
-        raise NotImplementedError(
-            "the 'sequential' protocol (robots called home one at a time, robots see and bump each other, "
-            "pymunk engine) is provided by mahn_evo.protocols, which is not available yet in this checkout; "
-            "use --protocols training") from exc
-    fn = getattr(evo_protocols, "sequential", None)
-    if fn is None:
-        raise NotImplementedError("mahn_evo.protocols has no 'sequential' function; use --protocols training")
-    result = fn(policy, map=map, params=params, episodes=episodes, seed=seed)
+    """Delegates to `mahn_evo.protocols.sequential(policy, map=, params=, episodes=, seed=)`, which drives the
+    policy's dict form (`reset()`, `act({agent: obs})`) and returns per-episode fitness and solved."""
+    result = evo_protocols.sequential(policy, map=map, params=params, episodes=episodes, seed=seed)
     get = result.get if isinstance(result, dict) else (lambda k: getattr(result, k))
     return Scores(np.atleast_1d(np.asarray(get("fitness"), dtype=np.float64)),
                   np.atleast_1d(np.asarray(get("solved"), dtype=bool)))

@@ -75,6 +75,11 @@ class TeamControllers:
             return self
         return TeamControllers(*(getattr(self, f)[None] for f in _FIELDS))
 
+    def repeated(self, n: int) -> TeamControllers:
+        """The batch's teams repeated n times along the batch axis (one team acting in n lock-step episodes)."""
+        b = self.as_batch()
+        return TeamControllers(*(np.repeat(getattr(b, f), int(n), axis=0) for f in _FIELDS))
+
     def team(self, index: int) -> TeamControllers:
         if not self.batched:
             raise ValueError("team(index) needs a batch of teams")
