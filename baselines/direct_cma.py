@@ -132,8 +132,48 @@ def _digest(es: Any) -> str:
     return h.hexdigest()
 
 
-class DirectCMA:
+class GenerationLoop:
+    """The run loop of a direct-encoding control, written once for CMA-ES and NEAT: generations until the budget,
+    the log and the checkpoint written every `checkpoint_every` generations and at the end (`finish`)."""
+
+    log_header: list[str]
+    out: Path
+    rows: list[list]
+    cfg: Any
+
+    @property
+    def generation(self) -> int:  # pragma: no cover - each control implements it
+        raise NotImplementedError
+
+    def step(self) -> list:  # pragma: no cover - each control implements it
+        raise NotImplementedError
+
+    def _checkpoint(self) -> None:  # pragma: no cover - each control implements it
+        raise NotImplementedError
+
+    def finish(self) -> dict:  # pragma: no cover - each control implements it
+        raise NotImplementedError
+
+    def _save(self) -> None:
+        atomic_write_csv(self.out / "log.csv", self.log_header, self.rows)
+        self._checkpoint()
+
+    def run(self, on_generation: Callable[[list], None] | None = None, checkpoint_every: int = 10) -> dict:
+        if isinstance(checkpoint_every, bool) or not isinstance(checkpoint_every, int) or checkpoint_every < 1:
+            raise ValueError(f"checkpoint_every must be a positive integer, got {checkpoint_every!r}")
+        while self.generation < self.cfg.generations:
+            row = self.step()
+            if self.generation % checkpoint_every == 0:
+                self._save()
+            if on_generation is not None:
+                on_generation(row)
+        return self.finish()
+
+
+class DirectCMA(GenerationLoop):
     """One CMA-ES run in a folder; `DirectCMA(cfg, out, resume=True)` continues the checkpoint there."""
+
+    log_header = LOG_HEADER
 
     def __init__(self, cfg: CMAConfig, out: str | Path, resume: bool = False) -> None:
         import cma
@@ -257,19 +297,8 @@ class DirectCMA:
         self.rows.append(row)
         return row
 
-    def run(self, on_generation: Callable[[list], None] | None = None, checkpoint_every: int = 10) -> dict:
-        while self.generation < self.cfg.generations:
-            row = self.step()
-            if self.generation % checkpoint_every == 0:
-                atomic_write_csv(self.out / "log.csv", LOG_HEADER, self.rows)
-                self._checkpoint()
-            if on_generation is not None:
-                on_generation(row)
-        return self.finish()
-
     def finish(self) -> dict:
-        atomic_write_csv(self.out / "log.csv", LOG_HEADER, self.rows)
-        self._checkpoint()
+        self._save()
         summary = {"method": self.method, "mode": self.cfg.mode, "seed": self.cfg.seed, "map": self.cfg.map,
                    "generations": self.generation, "population": self.cfg.popsize,
                    "n_params": self.encoding.n_params,

@@ -49,7 +49,6 @@ from mahn_envs.controllers import N_HIDDEN, N_OUTPUTS, TeamControllers
 from mahn_envs.core.params import TaskParams
 from mahn_evo.files import (
     atomic_write_checked_json,
-    atomic_write_csv,
     atomic_write_json,
     read_checked_json,
     remove_stray_temp_files,
@@ -59,7 +58,7 @@ from mahn_evo.neat import Genome, InnovationTracker, NeatSettings, NodeGene, Pop
 from mahn_evo.substrate import MODES, WEIGHT_RANGE
 from mahn_evo.team_evaluator import TeamEvaluator
 
-from .direct_cma import DirectEncoding
+from .direct_cma import DirectEncoding, GenerationLoop
 from .io import new_run_folder
 
 LOG_HEADER = ["generation", "evaluations", "best_fitness", "mean_fitness", "best_ever", "solved", "n_solved",
@@ -221,8 +220,10 @@ class SubstrateGenes:
         return self.encoding.decode(x), expressed
 
 
-class DirectNEAT:
+class DirectNEAT(GenerationLoop):
     """One run in a folder; `DirectNEAT(cfg, out, resume=True)` continues the checkpoint there."""
+
+    log_header = LOG_HEADER
 
     def __init__(self, cfg: NeatDirectConfig, out: str | Path, resume: bool = False) -> None:
         self.cfg = cfg
@@ -322,21 +323,8 @@ class DirectNEAT:
         self.rows.append(row)
         return row
 
-    def run(self, on_generation: Callable[[list], None] | None = None, checkpoint_every: int = 10) -> dict:
-        if isinstance(checkpoint_every, bool) or not isinstance(checkpoint_every, int) or checkpoint_every < 1:
-            raise ValueError(f"checkpoint_every must be a positive integer, got {checkpoint_every!r}")
-        while self.generation < self.cfg.generations:
-            row = self.step()
-            if self.generation % checkpoint_every == 0:
-                atomic_write_csv(self.out / "log.csv", LOG_HEADER, self.rows)
-                self._checkpoint()
-            if on_generation is not None:
-                on_generation(row)
-        return self.finish()
-
     def finish(self) -> dict:
-        atomic_write_csv(self.out / "log.csv", LOG_HEADER, self.rows)
-        self._checkpoint()
+        self._save()
         evaluations = self.rows[-1][1] if self.rows else 0
         summary = {"method": self.method, "mode": self.cfg.mode, "seed": self.cfg.seed, "map": self.cfg.map,
                    "generations": self.generation, "population": self.cfg.popsize, "start": self.cfg.start,
