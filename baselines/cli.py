@@ -7,6 +7,8 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
+from mahn_envs.core.params import ORIGINAL_MAX_TICKS, ORIGINAL_SIGNAL_TICK
+
 from .algos import ALGO_NAMES
 from .lean_config import METHODS as LEAN_METHODS
 from .train import EVAL_MAPS
@@ -20,6 +22,20 @@ def _json_dict(text: str) -> dict:
     if not isinstance(value, dict):
         raise argparse.ArgumentTypeError("must be a JSON object, e.g. '{\"learning_rate\": 1e-4}'")
     return value
+
+
+def _direct_run_options(p: argparse.ArgumentParser, folder: str, unit: str) -> None:
+    """The run options the direct-encoding controls (cmaes, neat-direct) share: seed, folder, resume, episodes,
+    checkpoints and the task's map and timing."""
+    p.add_argument("--seed", type=int, default=0, help="the run's seed (default %(default)s)")
+    p.add_argument("--out", type=Path, required=True, help=f"run folder ({folder})")
+    p.add_argument("--resume", action="store_true", help="continue the run in --out if there is one")
+    p.add_argument("--episodes", type=int, default=1, help=f"episodes per {unit}")
+    p.add_argument("--checkpoint-every", type=int, default=10, help="generations between checkpoints")
+    p.add_argument("--map", default="plus", help="training map (default %(default)s)")
+    p.add_argument("--max-cycles", type=int, default=ORIGINAL_MAX_TICKS,
+                   help="episode length in ticks (default: the paper's)")
+    p.add_argument("--signal-tick", type=int, default=ORIGINAL_SIGNAL_TICK, help="tick of the come-home signal")
 
 
 def _add_task_args(p: argparse.ArgumentParser) -> None:
@@ -99,14 +115,7 @@ def build_parser() -> argparse.ArgumentParser:
     cm.add_argument("--generations", type=int, required=True, help="CMA-ES generations to run")
     cm.add_argument("--popsize", type=int, default=100, help="candidates per generation (default %(default)s)")
     cm.add_argument("--sigma0", type=float, default=1.0, help="initial step size (default %(default)s)")
-    cm.add_argument("--seed", type=int, default=0, help="the run's seed (default %(default)s)")
-    cm.add_argument("--out", type=Path, required=True, help="run folder (history, log, summary)")
-    cm.add_argument("--resume", action="store_true", help="continue the run in --out if there is one")
-    cm.add_argument("--episodes", type=int, default=1, help="episodes per candidate")
-    cm.add_argument("--checkpoint-every", type=int, default=10, help="generations between checkpoints")
-    cm.add_argument("--map", default="plus", help="training map (default %(default)s)")
-    cm.add_argument("--max-cycles", type=int, default=1364, help="episode length in ticks (default: the paper's)")
-    cm.add_argument("--signal-tick", type=int, default=690, help="tick of the come-home signal")
+    _direct_run_options(cm, folder="history, log, summary", unit="candidate")
 
     nd = sub.add_parser("neat-direct", help="direct-encoding control: mahn's NEAT evolving the substrate networks "
                         "(not CPPNs; resumable)")
@@ -117,14 +126,7 @@ def build_parser() -> argparse.ArgumentParser:
     nd.add_argument("--start", choices=("full", "feedforward"), default="full",
                     help="initial genomes: every substrate connection (full), or all but the recurrent hidden "
                          "links, which add-connection grows (feedforward); default %(default)s")
-    nd.add_argument("--seed", type=int, default=0, help="the run's seed (default %(default)s)")
-    nd.add_argument("--out", type=Path, required=True, help="run folder (checkpoint, log, summary)")
-    nd.add_argument("--resume", action="store_true", help="continue the run in --out if there is one")
-    nd.add_argument("--episodes", type=int, default=1, help="episodes per team")
-    nd.add_argument("--checkpoint-every", type=int, default=10, help="generations between checkpoints")
-    nd.add_argument("--map", default="plus", help="training map (default %(default)s)")
-    nd.add_argument("--max-cycles", type=int, default=1364, help="episode length in ticks (default: the paper's)")
-    nd.add_argument("--signal-tick", type=int, default=690, help="tick of the come-home signal")
+    _direct_run_options(nd, folder="checkpoint, log, summary", unit="team")
     nd.add_argument("--neat", type=_json_dict, default={},
                     help="JSON overrides of NeatSettings fields (mahn_evo/neat/settings.py), e.g. "
                          "'{\"weight_coefficient\": 0.01}'")
