@@ -44,12 +44,22 @@ def import_hardware(rev: str, into: str):
     return importlib.import_module("mahn_envs_ab.hardware")
 
 
+def make_env(hw, emu, clock, retry):
+    """The env on `emu`'s robots through the constructor of `hw`'s version (settings records since they exist,
+    flat keywords before)."""
+    if hasattr(hw, "Link"):
+        return hw.KheperaHardwareEnv(emu.ports, timing=hw.Timing(clock=clock),
+                                     poses=hw.Poses(placement=emu.place, pose_source=emu.poses),
+                                     link=hw.Link(retry=retry), catch_sigterm=False)
+    return hw.KheperaHardwareEnv(emu.ports, clock=clock, placement=emu.place, pose_source=emu.poses,
+                                 catch_sigterm=False, retry=retry)
+
+
 def warm_up(hw) -> None:
     """Compile the numba code of the emulator's motion and sensing and of the env's scoring, untimed."""
     clock = hw.RealClock()
     with hw.KheperaEmulator(3, clock=clock, noise=0.0) as emu, \
-            hw.KheperaHardwareEnv(emu.ports, clock=clock, placement=emu.place, pose_source=emu.poses,
-                                  catch_sigterm=False, retry=hw.RetryPolicy(timeout=10.0)) as env:
+            make_env(hw, emu, clock, hw.RetryPolicy(timeout=10.0)) as env:
         env.reset()
         for _ in range(3):
             env.step({a: 1 for a in env.agents})
@@ -58,8 +68,7 @@ def warm_up(hw) -> None:
 def run_once(hw, scenario: str, timeout: float, attempts: int) -> dict:
     clock = hw.RealClock()
     emu = hw.KheperaEmulator(3, clock=clock, noise=0.0).start()
-    env = hw.KheperaHardwareEnv(emu.ports, clock=clock, placement=emu.place, pose_source=emu.poses,
-                                catch_sigterm=False, retry=hw.RetryPolicy(timeout=timeout, attempts=attempts))
+    env = make_env(hw, emu, clock, hw.RetryPolicy(timeout=timeout, attempts=attempts))
     marks: dict = {}
     inner = env.stop_all
 

@@ -7,7 +7,8 @@
 
 The emulator (TCP servers on 127.0.0.1 speaking the Khepera III protocol) also plays the overhead camera, so
 the run is scored with the task's fitness.  To use real robots instead, replace ``emu.ports`` by your
-serial URLs, ``placement=emu.place`` by ``"prompt"`` and drop ``pose_source`` (see docs/hardware.md).
+serial URLs and ``poses=Poses(placement=emu.place, pose_source=emu.poses)`` by ``Poses(placement="prompt")``
+(see docs/hardware.md).
 """
 from __future__ import annotations
 
@@ -17,7 +18,7 @@ import json
 import numpy as np
 
 from mahn_envs.controllers import TeamControllers
-from mahn_envs.hardware import KheperaEmulator, KheperaHardwareEnv, RealClock, VirtualClock
+from mahn_envs.hardware import KheperaEmulator, KheperaHardwareEnv, Poses, RealClock, Timing, VirtualClock
 from mahn_envs.policy import ControllerPolicy
 from mahn_envs.scripted import WaypointTeam
 
@@ -30,9 +31,10 @@ def main() -> None:
     ap.add_argument("--noise", type=float, default=1.0, help="IR noise relative to a real robot's")
     args = ap.parse_args()
 
-    clock = VirtualClock() if args.lockstep else RealClock(args.time_scale)
+    clock = VirtualClock() if args.lockstep else RealClock(args.time_scale)  # shared by the robots and the env
     with KheperaEmulator(3, clock=clock, noise=args.noise, seed=0) as emu, \
-            KheperaHardwareEnv(emu.ports, clock=clock, placement=emu.place, pose_source=emu.poses) as env:
+            KheperaHardwareEnv(emu.ports, timing=Timing(clock=clock),
+                               poses=Poses(placement=emu.place, pose_source=emu.poses)) as env:
         print("robots at", ", ".join(emu.ports), "- firmware", env.firmware["robot_0"],
               f"speed unit {env.speed_units[0]} units per mm/s")
         obs, infos = env.reset()

@@ -73,12 +73,13 @@ def deploy(champion_path: str | Path, ports: Sequence[str] | None = None, *,
     """Run the champion's team for one episode on the robots at `ports` and log every tick to CSV.
 
     How the robots run is the hardware env's own settings, passed as `env_kwargs` (the keyword arguments of
-    ``KheperaHardwareEnv``: ``max_cycles``, ``signal_tick``, ``auto_signal``, ``reflex``, the drive
-    ``forward_speed`` / ``turn_rate`` / ``wheel_base``, ``speed_unit``, ``calibration``, ``retry`` (a
-    ``RetryPolicy``), ...), so each has one default and one validation, the env's.  deploy chooses only: ``map``
-    (default the champion's), ``placement`` (default "prompt" on robots, "none" with the emulator, which places
-    its robots itself; "prompt" waits for Enter and needs a terminal or a line on stdin; or a function
-    {agent: pose} -> None) and, with the emulator, ``pose_source``.
+    ``KheperaHardwareEnv``, its settings records: ``episode=Episode(max_cycles=...)``,
+    ``driving=Driving(reflex=False)``, ``sensing=Sensing(calibration="linear")``,
+    ``link=Link(retry=RetryPolicy(timeout=0.2))``, ...), so each has one default and one validation, the env's.
+    deploy chooses only: ``map`` (default the champion's), the placement when `env_kwargs` has no ``poses``
+    (``Poses(placement="prompt")`` on robots: it waits for Enter and needs a terminal or a line on stdin;
+    "none" with the emulator, which places its robots itself), the pose source with the emulator (unless
+    ``poses`` has one), and the clock: `clock`, else real time at ``Timing.time_scale``.
 
     With ``emulate=True`` an in-process emulator stands in for the robots (`ports` must then be None); it
     also acts as the overhead tracker, so the log has poses and the result the task's fitness.  The CSV log is
@@ -88,11 +89,14 @@ def deploy(champion_path: str | Path, ports: Sequence[str] | None = None, *,
     confirmed is resent in the background: before returning (or raising) deploy waits up to `stop_wait`
     seconds (None: until every robot confirms, or Ctrl-C) for it, since the resending ends with the program.
     """
-    from mahn_envs.hardware import KheperaEmulator, KheperaHardwareEnv, RealClock
+    from mahn_envs.hardware import KheperaEmulator, KheperaHardwareEnv, Poses, RealClock, Timing
 
     kwargs = dict(env_kwargs or {})
-    if "clock" in kwargs:
+    timing = kwargs.pop("timing", None) or Timing()
+    if timing.clock is not None:
         raise ValueError("pass the clock to deploy (clock=...), which paces the emulator too, not in env_kwargs")
+    if clock is not None and timing.time_scale != 1.0:
+        raise ValueError("give deploy either a clock or Timing(time_scale=...) in env_kwargs, not both")
     team, data = load_team(champion_path)
     map_name = kwargs.get("map") or data.get("map", "plus")
     n = team.n_robots
@@ -108,19 +112,18 @@ def deploy(champion_path: str | Path, ports: Sequence[str] | None = None, *,
         log_path = Path(champion_path).with_name(f"deploy-{stamp}.csv")
     log_path = Path(log_path)
     log_path.parent.mkdir(parents=True, exist_ok=True)
-    if kwargs.get("placement") is None:
-        kwargs["placement"] = "none" if emulate else "prompt"
-    clock = clock if clock is not None else RealClock()
-    kwargs.update(map=map_name, clock=clock)
+    poses = kwargs.pop("poses", None) or Poses(placement="none" if emulate else "prompt")
+    clock = clock if clock is not None else RealClock(timing.time_scale)
+    kwargs.update(map=map_name, timing=Timing(period=timing.period, clock=clock))
     emulator = None
     try:
         if emulate:
             emulator = KheperaEmulator(n, map=map_name, clock=clock, seed=emulator_seed).start()
             ports = emulator.ports
-            kwargs["placement"] = _emulator_placement(emulator, kwargs["placement"])
-            kwargs.setdefault("pose_source", emulator.poses)
+            poses = Poses(placement=_emulator_placement(emulator, poses.placement),
+                          pose_source=poses.pose_source or emulator.poses)
         assert ports is not None  # the emulator's, or checked non-empty above
-        env = KheperaHardwareEnv(list(ports), **kwargs)
+        env = KheperaHardwareEnv(list(ports), poses=poses, **kwargs)
         try:
             with env:
                 policy = ControllerPolicy(team, env.possible_agents)
@@ -217,6 +220,10 @@ def _run_episode(env: Any, policy: ControllerPolicy, team: TeamControllers, obs:
 # ---------------------------------------------------------------------------------------------- CLI
 def add_deploy_parser(subparsers) -> argparse.ArgumentParser:
     """Register ``deploy`` on an argparse subparsers object; the parser's ``func`` runs it (returns an exit code)."""
+    from mahn_envs.hardware.kinematics import WHEEL_BASE_CM
+    from mahn_envs.hardware.transport import RetryPolicy
+
+    retry = RetryPolicy()
     p = subparsers.add_parser("deploy", help="run an evolved team on Khepera III robots or the emulator",
                               description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("champion", help="champion.json (or a controllers JSON file)")
@@ -238,14 +245,15 @@ def add_deploy_parser(subparsers) -> argparse.ArgumentParser:
                    help="robot seconds per wall second (only with an emulator started with the same value)")
     p.add_argument("--forward-speed", type=float, default=None, help="cm/s (default 9, the simulator's)")
     p.add_argument("--turn-rate", type=float, default=None, help="rad/s (default 2.0933, the simulator's)")
-    p.add_argument("--wheel-base", type=float, default=8.85, help="cm (default 8.85)")
+    p.add_argument("--wheel-base", type=float, default=WHEEL_BASE_CM, help="cm (default %(default)s)")
     p.add_argument("--speed-unit", type=float, default=None,
                    help="firmware units per mm/s (default: from the B reply, 218.72 for firmware >= 3)")
     p.add_argument("--calibration", choices=["paper", "linear"], default="paper", help="raw IR -> [0, 1]")
     p.add_argument("--no-reflex", action="store_true", help="turn the collision-avoidance reflex off")
-    p.add_argument("--timeout", type=float, default=0.12, help="seconds to wait for a reply before resending "
-                   "(default 0.12: with 3 attempts a silent robot is detected, and the others stopped, within 0.5 s)")
-    p.add_argument("--attempts", type=int, default=3, help="tries per command (default 3)")
+    p.add_argument("--timeout", type=float, default=retry.timeout, help="seconds to wait for a reply before "
+                   "resending (default %(default)s: with 3 attempts a silent robot is detected, and the others "
+                   "stopped, within 0.5 s)")
+    p.add_argument("--attempts", type=int, default=retry.attempts, help="tries per command (default %(default)s)")
     p.add_argument("--seed", type=int, default=0, help="emulator noise seed (with --emulate)")
     p.set_defaults(func=run_deploy)
     return p
@@ -255,8 +263,6 @@ def run_deploy(args: argparse.Namespace) -> int:
     import signal as _signal
     import threading
 
-    from mahn_envs.hardware import RealClock
-
     def _exit_on_sigterm(signum: int, frame: Any) -> None:
         raise SystemExit(128 + signum)
 
@@ -265,8 +271,7 @@ def run_deploy(args: argparse.Namespace) -> int:
         previous = _signal.signal(_signal.SIGTERM, _exit_on_sigterm)
     try:
         result = deploy(args.champion, args.ports, log_path=args.log, emulate=args.emulate,
-                        emulator_seed=args.seed, clock=RealClock(args.time_scale), env_kwargs=_env_kwargs(args),
-                        quiet=False)
+                        emulator_seed=args.seed, env_kwargs=_env_kwargs(args), quiet=False)
     except KeyboardInterrupt:
         print("deploy: interrupted; robots stopped", file=sys.stderr)
         return 130
@@ -284,14 +289,23 @@ def run_deploy(args: argparse.Namespace) -> int:
 
 
 def _env_kwargs(args: argparse.Namespace) -> dict[str, Any]:
-    """The hardware env's settings (KheperaHardwareEnv keywords) from the command line."""
-    from mahn_envs.hardware import RetryPolicy
+    """The hardware env's settings (KheperaHardwareEnv keywords: its records) from the command line; without
+    --placement deploy picks it (prompt on robots, none with the emulator)."""
+    from mahn_envs.hardware import Driving, Episode, Link, Poses, RetryPolicy, Sensing, Timing
 
-    return dict(map=args.map, max_cycles=args.max_cycles, signal_tick=args.signal_tick,
-                auto_signal=not args.no_auto_signal, placement=args.placement, forward_speed=args.forward_speed,
-                turn_rate=args.turn_rate, wheel_base=args.wheel_base,
-                speed_unit="auto" if args.speed_unit is None else args.speed_unit, calibration=args.calibration,
-                reflex=not args.no_reflex, retry=RetryPolicy(timeout=args.timeout, attempts=args.attempts))
+    kwargs: dict[str, Any] = dict(
+        map=args.map,
+        episode=Episode(max_cycles=args.max_cycles, signal_tick=args.signal_tick,
+                        auto_signal=not args.no_auto_signal),
+        driving=Driving(forward_speed=args.forward_speed, turn_rate=args.turn_rate, wheel_base=args.wheel_base,
+                        speed_unit="auto" if args.speed_unit is None else args.speed_unit,
+                        reflex=not args.no_reflex),
+        sensing=Sensing(calibration=args.calibration),
+        timing=Timing(time_scale=args.time_scale),
+        link=Link(retry=RetryPolicy(timeout=args.timeout, attempts=args.attempts)))
+    if args.placement is not None:
+        kwargs["poses"] = Poses(placement=args.placement)
+    return kwargs
 
 
 def main(argv: Sequence[str] | None = None) -> int:

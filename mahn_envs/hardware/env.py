@@ -18,8 +18,8 @@ when the robot answers that stop (transport.py), and one that is not confirmed i
 ``last_stop_report``) and resent in the background until it is.  A robot whose link is dead cannot be
 reached by anyone: it needs a robot-side watchdog (docs/hardware.md, section 4).
 
-Rewards need to know where the robots are: give ``pose_source`` (an overhead tracker; the emulator provides
-one) and the env scores the run with the simulator's own fitness code, so ``team_fitness`` / ``solved`` mean
+Rewards need to know where the robots are: give ``Poses(pose_source=...)`` (an overhead tracker; the emulator
+provides one) and the env scores the run with the simulator's own fitness code, so ``team_fitness`` / ``solved`` mean
 exactly what they mean in simulation.  Without it rewards are 0 and those infos are None.
 """
 from __future__ import annotations
@@ -30,23 +30,21 @@ import threading
 import time
 import warnings
 from collections.abc import Callable, Mapping, Sequence
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 from gymnasium import spaces
 from pettingzoo import ParallelEnv
 
 from ..core.api import ScoreKeeper, encode_inputs
-from ..core.params import TaskParams
 from ..khepera import DEFAULT_MODEL, KheperaModel
 from ..maps import World, load_map
 from ..patrol_return.env import agent_names, agent_policy_coordinates, coerce_actions, coerce_poses, task_spaces
 from . import protocol as P
-from .calibration import make_calibration
-from .clock import RealClock
 from .errors import HardwareError, ProtocolError
-from .kinematics import SPEED_UNIT_V3, WHEEL_BASE_CM, Drive, reflex_motion, speed_unit_for_version
-from .transport import RetryPolicy, RobotLink, open_url
+from .kinematics import SPEED_UNIT_V3, reflex_motion, speed_unit_for_version
+from .settings import Driving, Episode, Link, Poses, Sensing, Timing
+from .transport import RetryPolicy, RobotLink
 
 PoseSource = Callable[[], Any]
 NEVER_CONNECTED = "never connected: no command was sent to it"
@@ -70,6 +68,19 @@ def prompt_placement(targets: Mapping[str, tuple | None], input_fn: Callable[[st
         raise RuntimeError("the placement prompt needs someone to press Enter, but stdin is closed (no terminal); "
                            "place the robots first and run with --placement none (placement='none' in Python)") \
             from None
+
+
+R = TypeVar("R")
+
+
+def _record(name: str, value: R | None, kind: type[R]) -> R:
+    """The settings record passed as `name` (None: the defaults); anything else is a TypeError naming it."""
+    if value is None:
+        return kind()
+    if not isinstance(value, kind):
+        raise TypeError(f"{name} must be a {kind.__name__} record (mahn_envs.hardware.{kind.__name__}), "
+                        f"got {type(value).__name__}")
+    return value
 
 
 def _no_placement(targets: Mapping[str, Any]) -> None:
@@ -109,34 +120,25 @@ class _Stopper:
 class KheperaHardwareEnv(ParallelEnv):
     """Real Khepera III robots (one per pyserial URL in `ports`) behind the patrol_return_v0 interface.
 
-    Key arguments (all optional but `ports`):
-      forward_speed, turn_rate: cm/s and rad/s of "forward" and "turn" (default: the simulator's 9, 2.0933);
-      wheel_base: cm; speed_unit: firmware units per mm/s, "auto" (from ``B``) or a number / one per robot;
-      calibration: "paper" (default), "linear", a calibration object or a function raw -> [0, 1];
-      sensor_floor: observations at or below it read 0 (default: the model's 0.25, as in simulation);
-      reflex: the collision-avoidance reflex (on by default, as in simulation);
-      period: seconds per tick (default 0.033); time_scale or clock: pacing clock (see hardware.clock);
-      max_cycles, signal_tick, auto_signal: as in the simulated env; signal_schedule: {agent: tick} extra
-      scheduled come-home signals; call_home()/clear_signal() set them by hand;
-      placement: "prompt" (default: ask on stdin), "none", or a function {agent: pose} -> None;
-      pose_source: function -> (n, 3) poses or {agent: pose}, enables rewards and ``infos['pose']``;
-      retry: a RetryPolicy (timeouts, attempts, reconnects); baudrate, eol: line settings.
+    Everything but `ports` is optional, and every default reproduces the simulator.  `map` gives the start
+    poses and the scoring; the settings come as one record per concern (``hardware.settings``, each validated
+    when made): `driving` (reflex, speeds, wheel base, firmware speed unit), `sensing` (calibration, floor),
+    `timing` (period, real-time scale or a clock), `episode` (max_cycles, signal_tick, auto_signal,
+    signal_schedule), `poses` (placement, pose_source: a tracker enables rewards and ``infos['pose']``),
+    `link` (retry policy, baudrate, eol, opener).  `model` is the simulated robot the team was trained on (the
+    default speeds, floor and tick come from it), `render_mode` as in the simulated env, and `catch_sigterm`
+    turns SIGTERM into SystemExit so the stops run.  ``call_home()`` / ``clear_signal()`` give signals by hand::
+
+        KheperaHardwareEnv(ports, map="plus", timing=Timing(time_scale=4), link=Link(retry=RetryPolicy(0.2)))
     """
 
     metadata: dict[str, Any] = {"name": "khepera_hardware_v0", "render_modes": ["human", "rgb_array"], "render_fps": 30,
                 "is_parallelizable": True}
 
-    def __init__(self, ports: Sequence[str], *, map: str | World = "plus",
-                 forward_speed: float | None = None, turn_rate: float | None = None,
-                 wheel_base: float = WHEEL_BASE_CM, speed_unit: str | float | Sequence[float] = "auto",
-                 calibration: Any = "paper", sensor_floor: float | None = None, reflex: bool = True,
-                 period: float | None = None, time_scale: float = 1.0, clock: Any = None,
-                 max_cycles: int = 1364, signal_tick: int = 690, auto_signal: bool = True,
-                 signal_schedule: Mapping[str, int] | None = None,
-                 placement: str | Placement | None = "prompt", pose_source: PoseSource | None = None,
-                 retry: RetryPolicy | None = None, baudrate: int = 115200, eol: str = "\n",
-                 render_mode: str | None = None, model: KheperaModel = DEFAULT_MODEL,
-                 catch_sigterm: bool = True, opener: Callable = open_url) -> None:
+    def __init__(self, ports: Sequence[str], *, map: str | World = "plus", driving: Driving | None = None,
+                 sensing: Sensing | None = None, timing: Timing | None = None, episode: Episode | None = None,
+                 poses: Poses | None = None, link: Link | None = None, model: KheperaModel = DEFAULT_MODEL,
+                 render_mode: str | None = None, catch_sigterm: bool = True) -> None:
         self._links: list[RobotLink] = []
         self._closed = False
         self._prev_sigterm: Any = None
@@ -147,11 +149,19 @@ class KheperaHardwareEnv(ParallelEnv):
         for p in ports:
             if not isinstance(p, str) or not p:
                 raise ValueError(f"every port must be a non-empty string (a pyserial URL), got {p!r}")
+        driving = _record("driving", driving, Driving)
+        sensing = _record("sensing", sensing, Sensing)
+        timing = _record("timing", timing, Timing)
+        episode = _record("episode", episode, Episode)
+        poses = _record("poses", poses, Poses)
+        link = _record("link", link, Link)
+        if not isinstance(model, KheperaModel):
+            raise TypeError(f"model must be a KheperaModel, got {type(model).__name__}")
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode must be one of {self.metadata['render_modes']} or None, "
                              f"got {render_mode!r}")
-        if render_mode is not None and pose_source is None:
-            raise ValueError("rendering real robots needs to know where they are: pass pose_source")
+        if render_mode is not None and poses.pose_source is None:
+            raise ValueError("rendering real robots needs to know where they are: pass Poses(pose_source=...)")
         self.world = load_map(map)
         self.model = model
         n = len(ports)
@@ -159,27 +169,21 @@ class KheperaHardwareEnv(ParallelEnv):
         self.possible_agents = agent_names(n)
         self.agent_index = {a: k for k, a in enumerate(self.possible_agents)}
         self.policy_coordinates = agent_policy_coordinates(self.possible_agents)
-        self.drive = Drive(model.speed if forward_speed is None else float(forward_speed),
-                           model.turn_rate if turn_rate is None else float(turn_rate), float(wheel_base))
-        self.calibration = make_calibration(calibration)
-        self.sensor_floor = float(model.sensor_floor if sensor_floor is None else sensor_floor)
-        if not 0.0 <= self.sensor_floor < 1.0:
-            raise ValueError(f"sensor_floor must be in [0, 1), got {sensor_floor!r}")
-        self.reflex = bool(reflex)
-        self.period = float(model.dt if period is None else period)
-        if not (self.period > 0 and np.isfinite(self.period)):
-            raise ValueError(f"period must be a positive number of seconds, got {period!r}")
-        self.clock = clock if clock is not None else RealClock(time_scale)
-        self.params = TaskParams(max_cycles=max_cycles, signal_tick=signal_tick, auto_signal=auto_signal)
-        self.signal_schedule = self._check_schedule(signal_schedule)
-        self._placement = self._check_placement(placement)
-        if pose_source is not None and not callable(pose_source):
-            raise ValueError("pose_source must be a function returning the robots' (x, y, heading)")
-        if pose_source is not None and n != self.world.n_robots:
+        self.drive = driving.drive(model)
+        self.reflex = driving.reflex
+        speed_units = self._check_speed_units(driving.speed_unit, n)
+        self.calibration = sensing.calibration
+        self.sensor_floor = sensing.floor(model)
+        self.period = timing.tick_seconds(model)
+        self.clock = timing.make_clock()
+        self.params = episode.task_params()
+        self.signal_schedule = self._check_schedule(episode.signal_schedule)
+        self._placement = self._placement_function(poses.placement)
+        if poses.pose_source is not None and n != self.world.n_robots:
             raise ValueError(f"scoring needs one robot per start pose of map {self.world.name!r} "
                              f"({self.world.n_robots}), got {n} ports")
-        self.pose_source = pose_source
-        self.retry = retry if retry is not None else RetryPolicy()
+        self.pose_source = poses.pose_source
+        self.retry = link.retry
         self._stop_policy = RetryPolicy(timeout=self.retry.timeout, attempts=min(2, self.retry.attempts),
                                         reconnects=min(1, self.retry.reconnects))
         self.render_mode = render_mode
@@ -210,36 +214,37 @@ class KheperaHardwareEnv(ParallelEnv):
         if catch_sigterm:
             self._install_sigterm()
         try:
-            self._connect(opener, baudrate, eol, speed_unit)
+            self._connect(link, speed_units)
         except BaseException:
             self.close()
             raise
 
     # ------------------------------------------------------------------ configuration checks
-    def _check_schedule(self, schedule: Mapping[str, int] | None) -> dict[str, int]:
-        if schedule is None:
-            return {}
-        if not isinstance(schedule, Mapping):
-            raise ValueError("signal_schedule must be a dict {agent: tick}")
-        out = {}
-        for agent, tick in schedule.items():
+    def _check_speed_units(self, speed_unit: str | float | tuple[float, ...], n: int) -> list[float | None]:
+        """One speed unit per robot (None: read from the firmware's B reply)."""
+        if isinstance(speed_unit, str):  # "auto", the only string Driving accepts
+            return [None] * n
+        if isinstance(speed_unit, float):
+            return [speed_unit] * n
+        if len(speed_unit) != n:
+            raise ValueError(f"Driving.speed_unit lists {len(speed_unit)} values for {n} robots")
+        return list(speed_unit)
+
+    def _check_schedule(self, schedule: Mapping[str, int]) -> dict[str, int]:
+        for agent in schedule:
             if agent not in self.agent_index:
-                raise ValueError(f"signal_schedule names unknown agent {agent!r}; agents are {self.possible_agents}")
-            if isinstance(tick, bool) or not isinstance(tick, (int, np.integer)) or tick < 1:
-                raise ValueError(f"signal_schedule tick for {agent!r} must be a positive integer, got {tick!r}")
-            out[agent] = int(tick)
-        return out
+                raise ValueError(f"Episode.signal_schedule names unknown agent {agent!r}; "
+                                 f"agents are {self.possible_agents}")
+        return dict(schedule)
 
     @staticmethod
-    def _check_placement(placement: Any) -> Placement:
+    def _placement_function(placement: str | Placement) -> Placement:
         if placement == "prompt":
             return prompt_placement
-        if placement in ("none", None):
+        if placement == "none":
             return _no_placement
-        if callable(placement):
-            return placement
-        raise ValueError(f"placement must be 'prompt', 'none' or a function {{agent: pose}} -> None, "
-                         f"got {placement!r}")
+        assert callable(placement)  # Poses accepts nothing else
+        return placement
 
     def _install_sigterm(self) -> None:
         """Turn SIGTERM into SystemExit so the stop commands run (only from the main thread, only if nobody
@@ -253,23 +258,11 @@ class KheperaHardwareEnv(ParallelEnv):
         except (ValueError, OSError, AttributeError):  # pragma: no cover - platforms without SIGTERM
             pass
 
-    def _connect(self, opener: Callable, baudrate: int, eol: str, speed_unit: Any) -> None:
+    def _connect(self, settings: Link, units: list[float | None]) -> None:
         n = len(self.ports)
-        if isinstance(speed_unit, str):
-            if speed_unit != "auto":
-                raise ValueError(f"speed_unit must be 'auto', a number or one number per robot, got {speed_unit!r}")
-            units: list[float | None] = [None] * n
-        elif isinstance(speed_unit, (int, float)) and not isinstance(speed_unit, bool):
-            units = [float(speed_unit)] * n
-        else:
-            units = [float(u) for u in speed_unit]
-            if len(units) != n:
-                raise ValueError(f"speed_unit lists {len(units)} values for {n} robots")
-        for u in units:
-            if u is not None and not (u > 0 and np.isfinite(u)):
-                raise ValueError(f"speed_unit must be positive, got {u!r}")
         for agent, url in zip(self.possible_agents, self.ports):
-            link = RobotLink(url, agent, self.retry, baudrate=baudrate, eol=eol, opener=opener)
+            link = RobotLink(url, agent, settings.retry, baudrate=settings.baudrate, eol=settings.eol,
+                             opener=settings.opener)
             self._links.append(link)
             link.open()
         for k, link in enumerate(self._links):
@@ -283,7 +276,7 @@ class KheperaHardwareEnv(ParallelEnv):
                     raise
                 if units[k] is None:
                     warnings.warn(f"{agent}: firmware does not answer B; assuming speed unit {SPEED_UNIT_V3} "
-                                  "units per mm/s (pass speed_unit= to set it)", stacklevel=3)
+                                  "units per mm/s (set it with Driving(speed_unit=...))", stacklevel=3)
                 self.firmware[agent] = None
             if units[k] is None:
                 fw = self.firmware[agent]

@@ -83,7 +83,7 @@ class Driving:
             self.drive(KheperaModel())
         except ValueError as exc:
             raise ValueError(f"Driving.{exc}") from None
-        unit = self.speed_unit
+        unit: Any = self.speed_unit
         if isinstance(unit, str):
             _check(unit == "auto", "Driving", "speed_unit", f"must be 'auto', a number or one number per robot, "
                                                             f"got {unit!r}")

@@ -6,7 +6,7 @@ import warnings
 
 import pytest
 
-from mahn_envs.hardware import KheperaEmulator, KheperaHardwareEnv, RetryPolicy, VirtualClock
+from mahn_envs.hardware import KheperaEmulator, KheperaHardwareEnv, Link, Poses, RetryPolicy, Timing, VirtualClock
 
 
 @pytest.fixture
@@ -32,17 +32,18 @@ def make_emulator():
 
 @pytest.fixture
 def make_env(make_emulator, vclock):
-    """An env on a fresh lock-step emulator; returns (env, emulator).  Closed at teardown."""
+    """An env on a fresh lock-step emulator; returns (env, emulator).  Closed at teardown.  `env_kwargs` are the
+    env's keywords (settings records); the emulator places and tracks the robots unless `placement` or
+    `pose_source` replaces one of the two."""
     envs: list[KheperaHardwareEnv] = []
 
-    def make(emu_kwargs: dict | None = None, **env_kwargs):
+    def make(emu_kwargs: dict | None = None, placement=None, pose_source=None, **env_kwargs):
         emu_kwargs = dict(emu_kwargs or {})
         emu_kwargs.setdefault("clock", vclock)
         emu = make_emulator(**emu_kwargs)
-        env_kwargs.setdefault("clock", emu.world.clock)
-        env_kwargs.setdefault("placement", emu.place)
-        env_kwargs.setdefault("pose_source", emu.poses)
-        env_kwargs.setdefault("retry", RetryPolicy(timeout=1.0, attempts=3))
+        env_kwargs.setdefault("timing", Timing(clock=emu.world.clock))
+        env_kwargs.setdefault("poses", Poses(placement=placement or emu.place, pose_source=pose_source or emu.poses))
+        env_kwargs.setdefault("link", Link(retry=RetryPolicy(timeout=1.0, attempts=3)))
         env_kwargs.setdefault("catch_sigterm", False)
         env = KheperaHardwareEnv(emu.ports, **env_kwargs)
         envs.append(env)

@@ -15,7 +15,7 @@ import json
 import numpy as np
 import pytest
 
-from mahn_envs.hardware import KheperaHardwareEnv, RealClock, RetryPolicy, VirtualClock
+from mahn_envs.hardware import Episode, KheperaHardwareEnv, Link, Poses, RealClock, RetryPolicy, Timing, VirtualClock
 from mahn_envs.hardware import protocol as P
 from mahn_envs.scripted import WaypointTeam
 from mahn_evo.deploy import LOG_HEADER, deploy
@@ -47,8 +47,9 @@ def test_real_time_pacing_gives_33_ms_ticks(make_emulator):
     """Real clock, real sockets: the measured period is reported per tick and is the control period."""
     clock = RealClock(1.0)
     emu = make_emulator(clock=clock)
-    with KheperaHardwareEnv(emu.ports, clock=clock, placement=emu.place, pose_source=emu.poses,
-                            catch_sigterm=False, retry=RetryPolicy(timeout=1.0)) as env:
+    with KheperaHardwareEnv(emu.ports, timing=Timing(clock=clock),
+                            poses=Poses(placement=emu.place, pose_source=emu.poses), catch_sigterm=False,
+                            link=Link(retry=RetryPolicy(timeout=1.0))) as env:
         env.reset()
         periods = []
         for _ in range(75):
@@ -69,7 +70,8 @@ def test_deploy_runs_standard_and_situational_teams_and_logs_every_tick(tmp_path
     log = tmp_path / "run.csv"
     ticks = []
     result = deploy(champ, emulate=True, clock=VirtualClock(), log_path=log,
-                    env_kwargs={"max_cycles": 60, "signal_tick": 30}, on_tick=lambda t, infos: ticks.append(t))
+                    env_kwargs={"episode": Episode(max_cycles=60, signal_tick=30)},
+                    on_tick=lambda t, infos: ticks.append(t))
     assert result.ticks == 60 and ticks == list(range(1, 61))
     assert result.mode == ("situational" if n_brains == 2 else "standard")
     assert result.mean_period == pytest.approx(0.033) and result.team_fitness is not None

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from mahn_envs import patrol_return_v0
-from mahn_envs.hardware import KheperaHardwareEnv, RetryPolicy
+from mahn_envs.hardware import Driving, Episode, KheperaHardwareEnv, Link, Poses, RetryPolicy, Sensing, Timing
 from mahn_envs.hardware.errors import LinkError
 from mahn_envs.hardware.kinematics import SPEED_UNIT_V2
 
@@ -87,7 +87,7 @@ def test_prompt_placement_asks_and_waits(make_env, monkeypatch):
 
 
 def test_signal_auto_schedule_and_operator(make_env):
-    env, emu = make_env(max_cycles=40, signal_tick=30, signal_schedule={"robot_2": 5})
+    env, emu = make_env(episode=Episode(max_cycles=40, signal_tick=30, signal_schedule={"robot_2": 5}))
     obs, _ = env.reset()
     assert all(o[6] == 0 for o in obs.values())
     seen = {}
@@ -114,17 +114,18 @@ def test_reflex_on_by_default_and_can_be_turned_off(make_env):
     _, _, _, _, infos = env.step({a: 1 for a in env.agents})
     assert infos["robot_0"]["motion"] == "stop" and infos["robot_0"]["command"] == "D,l0,l0"
     assert infos["robot_1"]["motion"] == "forward"
-    env2, emu2 = make_env(reflex=False)
+    env2, emu2 = make_env(driving=Driving(reflex=False))
     env2.reset(options={"poses": near_wall})
     _, _, _, _, infos = env2.step({a: 1 for a in env2.agents})
     assert infos["robot_0"]["motion"] == "forward"
 
 
 def test_calibration_and_floor_are_swappable(make_env):
-    env, emu = make_env(calibration=lambda raw: np.full(np.shape(raw), 0.2), sensor_floor=0.0)
+    env, emu = make_env(sensing=Sensing(calibration=lambda raw: np.full(np.shape(raw), 0.2), sensor_floor=0.0))
     obs, _ = env.reset()
     assert np.allclose(obs["robot_0"][:6], 0.2)
-    env2, _ = make_env(calibration=lambda raw: np.full(np.shape(raw), 0.2))  # default floor 0.25 applies
+    # the default floor 0.25 applies
+    env2, _ = make_env(sensing=Sensing(calibration=lambda raw: np.full(np.shape(raw), 0.2)))
     obs, _ = env2.reset()
     assert np.all(obs["robot_0"][:6] == 0.0)
     # the reflex sees the un-floored 0.2 on every sensor: the left branch wins, turning in place
@@ -134,7 +135,7 @@ def test_calibration_and_floor_are_swappable(make_env):
 
 def test_speed_unit_read_from_the_firmware_version(make_env):
     env, emu = make_env(emu_kwargs={"firmware": (2, 7), "speed_unit": SPEED_UNIT_V2},
-                        forward_speed=6.0, turn_rate=1.0)
+                        driving=Driving(forward_speed=6.0, turn_rate=1.0))
     assert env.firmware["robot_0"] == (2, 7) and env.speed_units == [SPEED_UNIT_V2] * 3
     env.reset()
     _, _, _, _, infos = env.step({"robot_0": 1, "robot_1": 0, "robot_2": 2})
@@ -142,12 +143,12 @@ def test_speed_unit_read_from_the_firmware_version(make_env):
     half = round(1.0 * 8.85 / 2 * 10 * SPEED_UNIT_V2)
     assert infos["robot_1"]["command"] == f"D,l{-half},l{half}"
     assert infos["robot_2"]["command"] == f"D,l{half},l{-half}"
-    env2, _ = make_env(speed_unit=[100.0, 200.0, 300.0])
+    env2, _ = make_env(driving=Driving(speed_unit=[100.0, 200.0, 300.0]))
     assert env2.speed_units == [100.0, 200.0, 300.0]
 
 
 def test_episode_end_close_and_context_manager_stop_every_robot(make_env, make_emulator, vclock):
-    env, emu = make_env(max_cycles=5)
+    env, emu = make_env(episode=Episode(max_cycles=5))
     env.reset()
     for _ in range(5):
         env.step({a: 1 for a in env.agents})
@@ -164,7 +165,8 @@ def test_episode_end_close_and_context_manager_stop_every_robot(make_env, make_e
         env.reset()
 
     emu2 = make_emulator(clock=vclock)
-    with KheperaHardwareEnv(emu2.ports, clock=vclock, placement="none", catch_sigterm=False) as env2:
+    with KheperaHardwareEnv(emu2.ports, timing=Timing(clock=vclock), poses=Poses(placement="none"),
+                            catch_sigterm=False) as env2:
         env2.reset()
         env2.step({a: 2 for a in env2.agents})
         assert not emu2.world.stopped(1)
@@ -215,10 +217,10 @@ def test_construction_errors():
     with pytest.raises(ValueError, match="pose_source"):
         KheperaHardwareEnv(["socket://127.0.0.1:4000"], render_mode="rgb_array")
     with pytest.raises(ValueError, match="placement"):
-        KheperaHardwareEnv(["socket://127.0.0.1:4000"], placement="sometimes")
+        KheperaHardwareEnv(["socket://127.0.0.1:4000"], poses=Poses(placement="sometimes"))
     with pytest.raises(LinkError, match="robot_0.*cannot open"):
-        KheperaHardwareEnv(["socket://127.0.0.1:1"], placement="none", catch_sigterm=False,
-                           retry=RetryPolicy(timeout=0.2))
+        KheperaHardwareEnv(["socket://127.0.0.1:1"], poses=Poses(placement="none"), catch_sigterm=False,
+                           link=Link(retry=RetryPolicy(timeout=0.2)))
 
 
 def test_render_rgb_array_with_a_tracker(make_env):
@@ -237,9 +239,11 @@ def test_firmware_without_B_falls_back_to_the_default_speed_unit():
         return FakePort([b"$\r\n", b"m\r\n", b"d\r\n", b"d\r\n"], timeout)
 
     with pytest.warns(UserWarning, match="does not answer B"):
-        env = KheperaHardwareEnv(["fake://0"], placement="none", catch_sigterm=False, opener=opener)
+        env = KheperaHardwareEnv(["fake://0"], poses=Poses(placement="none"), catch_sigterm=False,
+                                 link=Link(opener=opener))
     assert env.firmware == {"robot_0": None} and env.speed_units == [218.72]
     env.close()
-    env = KheperaHardwareEnv(["fake://0"], placement="none", catch_sigterm=False, opener=opener, speed_unit=150.0)
+    env = KheperaHardwareEnv(["fake://0"], poses=Poses(placement="none"), catch_sigterm=False,
+                             link=Link(opener=opener), driving=Driving(speed_unit=150.0))
     assert env.speed_units == [150.0]
     env.close()

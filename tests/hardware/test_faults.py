@@ -6,7 +6,7 @@ import warnings
 
 import pytest
 
-from mahn_envs.hardware import RetryPolicy
+from mahn_envs.hardware import Link, Poses, RetryPolicy, Timing
 from mahn_envs.hardware.emulator import parse_fault
 from mahn_envs.hardware.errors import LinkError, ProtocolError, RobotTimeout
 
@@ -27,7 +27,7 @@ def _all_stopped(emu, robots=(0, 1, 2)):
 
 
 def test_one_dropped_reply_is_retried_transparently(make_env):
-    env, emu = make_env(retry=FAST)
+    env, emu = make_env(link=Link(retry=FAST))
     env.reset()
     emu.inject(1, "drop", count=1, letters="N")
     _drive(env)
@@ -36,7 +36,7 @@ def test_one_dropped_reply_is_retried_transparently(make_env):
 
 
 def test_a_robot_that_stops_answering_stops_the_team(make_env):
-    env, emu = make_env(retry=FAST)
+    env, emu = make_env(link=Link(retry=FAST))
     env.reset()
     _drive(env)
     emu.inject(1, "drop", count=None)  # robot_1 goes silent for good
@@ -54,7 +54,7 @@ def test_a_robot_that_stops_answering_stops_the_team(make_env):
 
 
 def test_garbage_is_an_error_naming_robot_command_and_reply_and_stops_the_team(make_env):
-    env, emu = make_env(retry=FAST)
+    env, emu = make_env(link=Link(retry=FAST))
     env.reset()
     _drive(env)
     emu.inject(2, "garbage", count=1, letters="N")
@@ -67,7 +67,7 @@ def test_garbage_is_an_error_naming_robot_command_and_reply_and_stops_the_team(m
 
 
 def test_garbage_in_reply_to_a_speed_command(make_env):
-    env, emu = make_env(retry=FAST)
+    env, emu = make_env(link=Link(retry=FAST))
     env.reset()
     emu.inject(0, "garbage", count=1, letters="D")
     with pytest.raises(ProtocolError, match="robot_0.*'D,l19685,l19685'"):
@@ -76,7 +76,7 @@ def test_garbage_in_reply_to_a_speed_command(make_env):
 
 
 def test_delay_within_the_timeout_is_fine_beyond_it_is_retried(make_env):
-    env, emu = make_env(retry=FAST)
+    env, emu = make_env(link=Link(retry=FAST))
     env.reset()
     emu.inject(0, "delay", count=1, letters="N", delay=0.1)
     _drive(env)
@@ -89,7 +89,7 @@ def test_delay_within_the_timeout_is_fine_beyond_it_is_retried(make_env):
 
 
 def test_a_reply_later_than_every_attempt_times_out_and_stops(make_env):
-    env, emu = make_env(retry=RetryPolicy(timeout=0.2, attempts=2))
+    env, emu = make_env(link=Link(retry=RetryPolicy(timeout=0.2, attempts=2)))
     env.reset()
     emu.inject(2, "delay", count=1, letters="N", delay=1.0)
     with pytest.raises(RobotTimeout, match="robot_2.*'N'"), warnings.catch_warnings():
@@ -104,7 +104,7 @@ def test_a_reply_later_than_every_attempt_times_out_and_stops(make_env):
 
 
 def test_one_disconnect_is_survived_by_reconnecting(make_env):
-    env, emu = make_env(retry=FAST)
+    env, emu = make_env(link=Link(retry=FAST))
     env.reset()
     emu.inject(1, "disconnect", count=1, letters="D")
     _drive(env)
@@ -113,7 +113,7 @@ def test_one_disconnect_is_survived_by_reconnecting(make_env):
 
 
 def test_a_lost_link_stops_the_others(make_env):
-    env, emu = make_env(retry=FAST)
+    env, emu = make_env(link=Link(retry=FAST))
     env.reset()
     _drive(env)
     emu.inject(0, "disconnect", count=None)
@@ -130,7 +130,8 @@ def test_robot_side_watchdog_stops_an_unreachable_robot(make_emulator, vclock):
     emu = make_emulator(clock=vclock, watchdog=0.5)
     from mahn_envs.hardware import KheperaHardwareEnv
 
-    env = KheperaHardwareEnv(emu.ports, clock=vclock, placement="none", catch_sigterm=False, retry=FAST)
+    env = KheperaHardwareEnv(emu.ports, timing=Timing(clock=vclock), poses=Poses(placement="none"),
+                             catch_sigterm=False, link=Link(retry=FAST))
     try:
         env.reset()
         _drive(env)

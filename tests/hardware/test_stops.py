@@ -11,7 +11,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from mahn_envs.hardware import RetryPolicy
+from mahn_envs.hardware import Link, Poses, RetryPolicy
 from mahn_envs.hardware import protocol as P
 from mahn_envs.hardware.clock import RealClock
 from mahn_envs.hardware.errors import ProtocolError, RobotTimeout
@@ -33,7 +33,7 @@ def test_a_late_drive_reply_is_not_taken_for_the_stop_acknowledgement(make_env):
     # robot_1 answers its next two D commands 2 s late each (the emulator's handler is blocked, so the line
     # stays FIFO): the drive command times out (3 attempts of 0.6 s), the emergency stop then sees the late `d`
     # of the abandoned drive command at 2 s - which must not count as the stop's reply: the robot is driving
-    env, emu = make_env(retry=RetryPolicy(timeout=0.6, attempts=3))
+    env, emu = make_env(link=Link(retry=RetryPolicy(timeout=0.6, attempts=3)))
     env.reset()
     _drive(env)
     emu.inject(1, "delay", count=2, letters="D", delay=2.0)
@@ -156,7 +156,7 @@ def test_every_accepted_reply_answers_one_of_its_own_commands_writes(fates, lett
 # ---------------------------------------------------------------------------------------------- parallel stops
 def test_stops_go_to_every_robot_in_parallel(make_env):
     # a frozen bridge: no robot answers; every robot must get its first stop before any robot's stop is resent
-    env, emu = make_env(emu_kwargs={"clock": RealClock()}, retry=RetryPolicy(timeout=0.25, attempts=2))
+    env, emu = make_env(emu_kwargs={"clock": RealClock()}, link=Link(retry=RetryPolicy(timeout=0.25, attempts=2)))
     env.reset()
     _drive(env, 2)
     for k in range(3):
@@ -195,7 +195,8 @@ def test_deploy_waits_until_an_unconfirmed_stop_is_confirmed(tmp_path, capsys, m
     with pytest.raises(RobotTimeout, match="robot_1"), warnings.catch_warnings():
         warnings.simplefilter("ignore")
         deploy(champ, emu.ports, clock=vclock, on_tick=on_tick, log_path=tmp_path / "log.csv",
-               env_kwargs={"placement": "none", "retry": RetryPolicy(timeout=0.2, attempts=2), "catch_sigterm": False})
+               env_kwargs={"poses": Poses(placement="none"), "link": Link(retry=RetryPolicy(timeout=0.2, attempts=2)),
+                           "catch_sigterm": False})
     assert emu.world.stopped(1) and last_command(emu, 1) == "D,l0,l0"  # deploy waited for the real stop
     err = capsys.readouterr().err
     assert "stop of ['robot_1'] is not confirmed" in err and "stop of ['robot_1'] confirmed" in err

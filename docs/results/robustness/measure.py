@@ -11,7 +11,7 @@ import json
 import sys
 from pathlib import Path
 
-from mahn_envs.hardware import RetryPolicy
+from mahn_envs.hardware import Link, RetryPolicy
 from mahn_envs.hardware.clock import VirtualClock
 from mahn_envs.policy import ControllerPolicy
 from mahn_evo.champion import Champion
@@ -39,7 +39,7 @@ def measure(run: Path) -> dict:
     emulated = []
     for s in EMULATOR_SEEDS:
         res = deploy(path, emulate=True, emulator_seed=s, clock=VirtualClock(),
-                     env_kwargs={"retry": RetryPolicy(timeout=2.0)}, log_path=run / f"emulator_s{s}.csv")
+                     env_kwargs={"link": Link(retry=RetryPolicy(timeout=2.0))}, log_path=run / f"emulator_s{s}.csv")
         emulated.append(res.team_fitness)
     return {"run": run.name, "training_fitness": champ.fitness, "generation": champ.generation,
             "noise_free_fitness": clean["fitness"], "noisy_mean_fitness": rough["fitness"],
