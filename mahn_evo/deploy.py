@@ -92,6 +92,9 @@ def deploy(champion_path: str | Path, ports: Sequence[str] | None = None, *,
     from mahn_envs.hardware import KheperaEmulator, KheperaHardwareEnv, Poses, RealClock, Timing
 
     kwargs = dict(env_kwargs or {})
+    for name, kind in (("timing", Timing), ("poses", Poses)):
+        if kwargs.get(name) is not None and not isinstance(kwargs[name], kind):
+            raise TypeError(f"env_kwargs[{name!r}] must be a {kind.__name__} record, got {type(kwargs[name]).__name__}")
     timing = kwargs.pop("timing", None) or Timing()
     if timing.clock is not None:
         raise ValueError("pass the clock to deploy (clock=...), which paces the emulator too, not in env_kwargs")
@@ -219,11 +222,9 @@ def _run_episode(env: Any, policy: ControllerPolicy, team: TeamControllers, obs:
 
 # ---------------------------------------------------------------------------------------------- CLI
 def add_deploy_parser(subparsers) -> argparse.ArgumentParser:
-    """Register ``deploy`` on an argparse subparsers object; the parser's ``func`` runs it (returns an exit code)."""
-    from mahn_envs.hardware.kinematics import WHEEL_BASE_CM
-    from mahn_envs.hardware.transport import RetryPolicy
-
-    retry = RetryPolicy()
+    """Register ``deploy`` on an argparse subparsers object; the parser's ``func`` runs it (returns an exit code).
+    The defaults repeat the settings records' (tests/hardware/test_settings.py checks that they agree) so that
+    building the ``mahn-evo`` parser does not import the hardware package."""
     p = subparsers.add_parser("deploy", help="run an evolved team on Khepera III robots or the emulator",
                               description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("champion", help="champion.json (or a controllers JSON file)")
@@ -245,15 +246,14 @@ def add_deploy_parser(subparsers) -> argparse.ArgumentParser:
                    help="robot seconds per wall second (only with an emulator started with the same value)")
     p.add_argument("--forward-speed", type=float, default=None, help="cm/s (default 9, the simulator's)")
     p.add_argument("--turn-rate", type=float, default=None, help="rad/s (default 2.0933, the simulator's)")
-    p.add_argument("--wheel-base", type=float, default=WHEEL_BASE_CM, help="cm (default %(default)s)")
+    p.add_argument("--wheel-base", type=float, default=8.85, help="cm (default 8.85)")
     p.add_argument("--speed-unit", type=float, default=None,
                    help="firmware units per mm/s (default: from the B reply, 218.72 for firmware >= 3)")
     p.add_argument("--calibration", choices=["paper", "linear"], default="paper", help="raw IR -> [0, 1]")
     p.add_argument("--no-reflex", action="store_true", help="turn the collision-avoidance reflex off")
-    p.add_argument("--timeout", type=float, default=retry.timeout, help="seconds to wait for a reply before "
-                   "resending (default %(default)s: with 3 attempts a silent robot is detected, and the others "
-                   "stopped, within 0.5 s)")
-    p.add_argument("--attempts", type=int, default=retry.attempts, help="tries per command (default %(default)s)")
+    p.add_argument("--timeout", type=float, default=0.12, help="seconds to wait for a reply before resending "
+                   "(default 0.12: with 3 attempts a silent robot is detected, and the others stopped, within 0.5 s)")
+    p.add_argument("--attempts", type=int, default=3, help="tries per command (default 3)")
     p.add_argument("--seed", type=int, default=0, help="emulator noise seed (with --emulate)")
     p.set_defaults(func=run_deploy)
     return p

@@ -8,7 +8,7 @@ as the gap shrinks.  A calibration maps one to the other:
 ``to_raw(unit) -> counts``  its inverse, used by the emulator to synthesise ``N`` replies from the simulator.
 
 Three are provided; any object with these two methods (or a plain function for ``to_unit`` only, wrapped by
-:func:`make_calibration`) can be passed as ``calibration=`` to the env:
+:func:`make_calibration`) can be passed as ``Sensing(calibration=...)`` to the env:
 
 - :class:`LogCalibration` (default, ``"paper"``): the paper's ``1.43 - (log10(s) - 0.51) / 2.25``, clipped.
   It puts raw 30 at 1.0 (about 12 cm) and raw ~1460 at 0.25 (about 2.6 cm), close to the simulator's scale.

@@ -66,7 +66,7 @@ def prompt_placement(targets: Mapping[str, tuple | None], input_fn: Callable[[st
         input_fn("Robots are stopped. Press Enter when they are in place... ")
     except EOFError:
         raise RuntimeError("the placement prompt needs someone to press Enter, but stdin is closed (no terminal); "
-                           "place the robots first and run with --placement none (placement='none' in Python)") \
+                           "place the robots first and run with --placement none (Poses(placement='none') in Python)") \
             from None
 
 

@@ -175,3 +175,5 @@ def test_deploy_takes_its_clock_once(tmp_path):
         deploy(tmp_path / "c.json", emulate=True, env_kwargs={"timing": Timing(clock=VirtualClock())})
     with pytest.raises(ValueError, match="not both"):
         deploy(tmp_path / "c.json", emulate=True, clock=VirtualClock(), env_kwargs={"timing": Timing(time_scale=2)})
+    with pytest.raises(TypeError, match=r"env_kwargs\['poses'\] must be a Poses record"):
+        deploy(tmp_path / "c.json", emulate=True, env_kwargs={"poses": {"placement": "none"}})
