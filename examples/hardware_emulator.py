@@ -18,7 +18,16 @@ import json
 import numpy as np
 
 from mahn_envs.controllers import TeamControllers
-from mahn_envs.hardware import KheperaEmulator, KheperaHardwareEnv, Poses, RealClock, Timing, VirtualClock
+from mahn_envs.hardware import (
+    KheperaEmulator,
+    KheperaHardwareEnv,
+    Link,
+    Poses,
+    RealClock,
+    RetryPolicy,
+    Timing,
+    VirtualClock,
+)
 from mahn_envs.policy import ControllerPolicy
 from mahn_envs.scripted import WaypointTeam
 
@@ -34,7 +43,10 @@ def main() -> None:
     clock = VirtualClock() if args.lockstep else RealClock(args.time_scale)  # shared by the robots and the env
     with KheperaEmulator(3, clock=clock, noise=args.noise, seed=0) as emu, \
             KheperaHardwareEnv(emu.ports, timing=Timing(clock=clock),
-                               poses=Poses(placement=emu.place, pose_source=emu.poses)) as env:
+                               poses=Poses(placement=emu.place, pose_source=emu.poses),
+                               # the emulator compiles its sensing code on the first N (about a second):
+                               # a patient timeout, where real robots use the default 0.12 s
+                               link=Link(retry=RetryPolicy(timeout=2.0))) as env:
         print("robots at", ", ".join(emu.ports), "- firmware", env.firmware["robot_0"],
               f"speed unit {env.speed_units[0]} units per mm/s")
         obs, infos = env.reset()
