@@ -19,8 +19,8 @@ when the robot answers that stop (transport.py), and one that is not confirmed i
 reached by anyone: it needs a robot-side watchdog (docs/hardware.md, section 4).
 
 Rewards need to know where the robots are: give ``Poses(pose_source=...)`` (an overhead tracker; the emulator
-provides one) and the env scores the run with the simulator's own fitness code, so ``team_fitness`` / ``solved`` mean
-exactly what they mean in simulation.  Without it rewards are 0 and those infos are None.
+provides one) and the env scores the run with the simulator's own fitness code, so ``team_fitness`` /
+``solved`` mean exactly what they mean in simulation.  Without it rewards are 0 and those infos are None.
 """
 from __future__ import annotations
 
@@ -46,7 +46,6 @@ from .kinematics import SPEED_UNIT_V3, reflex_motion, speed_unit_for_version
 from .settings import Driving, Episode, Link, Poses, Sensing, Timing
 from .transport import RetryPolicy, RobotLink
 
-PoseSource = Callable[[], Any]
 NEVER_CONNECTED = "never connected: no command was sent to it"
 Placement = Callable[[dict], None]
 
