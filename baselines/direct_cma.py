@@ -3,7 +3,7 @@
 
 Why: HyperNEAT differs from RL both in *how* controllers are searched (evolution, not gradients) and in *how*
 they are encoded (a CPPN painting the weights, not the weights themselves).  Evolving the weights directly,
-through the same networks (`mahn_envs.controllers.TeamControllers`), the same connections
+through the same networks (`mahn_envs.policies.team_controllers.TeamControllers`), the same connections
 (`mahn_evo.substrate.query_layout`: one evolved number per substrate connection or bias, the signal input only
 in standard geometry) and the same evaluator (`mahn_evo.team_evaluator.TeamEvaluator.score`), separates the two.
 
@@ -37,8 +37,8 @@ from typing import Any
 
 import numpy as np
 
-from mahn_envs.controllers import TeamControllers
 from mahn_envs.core.params import TaskParams
+from mahn_envs.policies.team_controllers import TeamControllers
 from mahn_evo.files import atomic_write_csv, atomic_write_json, read_versioned_json, versioned
 from mahn_evo.substrate import MODES, WEIGHT_RANGE, query_layout
 from mahn_evo.team_evaluator import TeamEvaluator

@@ -45,8 +45,8 @@ from typing import Any
 
 import numpy as np
 
-from mahn_envs.controllers import N_HIDDEN, N_OUTPUTS, TeamControllers
 from mahn_envs.core.params import TaskParams
+from mahn_envs.policies.team_controllers import N_HIDDEN, N_OUTPUTS, TeamControllers
 from mahn_evo.files import (
     atomic_write_checked_json,
     atomic_write_json,

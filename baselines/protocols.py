@@ -4,7 +4,7 @@
 batch core so B episodes go in lock-step.  `sequential` (the paper's real-world protocol: robots called home
 one at a time, robots see and bump each other, pymunk engine) is owned by `mahn_evo.protocols`; we delegate to
 it so RL and evolution are scored by the same code.  Every team (evolved, RL, scripted on the training protocol)
-implements :class:`mahn_envs.team_policy.TeamPolicy`.  Register more protocols with `register_protocol`.
+implements :class:`mahn_envs.policies.team_policy.TeamPolicy`.  Register more protocols with `register_protocol`.
 """
 from __future__ import annotations
 
@@ -16,7 +16,7 @@ import numpy as np
 
 from mahn_envs.core.batch import BatchSim
 from mahn_envs.core.params import TaskParams
-from mahn_envs.team_policy import TeamPolicy
+from mahn_envs.policies.team_policy import TeamPolicy
 from mahn_evo import protocols as evo_protocols
 
 

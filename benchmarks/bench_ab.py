@@ -35,7 +35,7 @@ ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
 sys.path.insert(0, ROOT)
 
 from mahn_envs import patrol_return_v0 as new_env  # noqa: E402
-from mahn_envs.controllers import TeamControllers  # noqa: E402
+from mahn_envs.policies.team_controllers import TeamControllers  # noqa: E402
 
 FIELDS = ("w_ih", "w_hh", "w_ho", "b_h", "b_o")
 

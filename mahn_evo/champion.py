@@ -1,6 +1,6 @@
 """Champion files: the best CPPN of a run and the team controllers it decodes to, as versioned JSON.
 
-The controllers are stored decoded (plain arrays, see mahn_envs.controllers) so a champion can drive the
+The controllers are stored decoded (plain arrays, see mahn_envs.policies.team_controllers) so a champion can drive the
 simulator, the PettingZoo env or real robots without the trainer; the CPPN is kept so it can be re-decoded,
 inspected or evolved further.
 """
@@ -12,8 +12,8 @@ from typing import Any
 
 import numpy as np
 
-from mahn_envs.controllers import _FIELDS as CONTROLLER_FIELDS
-from mahn_envs.controllers import TeamControllers
+from mahn_envs.policies.team_controllers import _FIELDS as CONTROLLER_FIELDS
+from mahn_envs.policies.team_controllers import TeamControllers
 
 from .files import atomic_write_json, read_versioned_json, versioned
 from .neat.genome import Genome

@@ -326,7 +326,7 @@ def cmd_eval(args) -> int:
                          heading_noise=args.heading_noise, start_jitter_xy=args.start_jitter_xy,
                          start_jitter_heading=args.start_jitter_heading)
     if args.protocol == "sequential":
-        from mahn_envs.policy import ControllerPolicy
+        from mahn_envs.policies.controller_policy import ControllerPolicy
 
         from .champion import Champion
         from .protocols import sequential, sequential_summary

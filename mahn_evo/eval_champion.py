@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 
 from mahn_envs.core import BatchSim, TaskParams
-from mahn_envs.policy import ControllerPolicy
+from mahn_envs.policies.controller_policy import ControllerPolicy
 
 from .champion import Champion
 from .task_setup import task_env

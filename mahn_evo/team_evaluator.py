@@ -10,9 +10,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from mahn_envs.controllers import TeamControllers
 from mahn_envs.core import BatchSim, TaskParams
 from mahn_envs.maps import load_map
+from mahn_envs.policies.team_controllers import TeamControllers
 
 from .cppn import CPPN_ACTIVATIONS, compile_genome
 from .substrate import decode_population

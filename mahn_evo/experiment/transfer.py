@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 
 from mahn_envs.core import BatchSim
-from mahn_envs.policy import ControllerPolicy
+from mahn_envs.policies.controller_policy import ControllerPolicy
 
 from ..champion import Champion
 from ..eval_champion import evaluate_champion

@@ -7,8 +7,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mahn_envs.policy import ControllerPolicy
-from mahn_envs.team_policy import TeamPolicy
+from mahn_envs.policies.controller_policy import ControllerPolicy
+from mahn_envs.policies.team_policy import TeamPolicy
 from mahn_evo.champion import Champion
 
 PUBLISHED = Path(__file__).parents[2] / "docs" / "results" / "experiment_mahn_0.1" / "champions"

@@ -1,8 +1,8 @@
 """The evaluator runs each distinct team once and gives duplicates the same scores."""
 import numpy as np
 
-from mahn_envs.controllers import TeamControllers
 from mahn_envs.core import TaskParams
+from mahn_envs.policies.team_controllers import TeamControllers
 from mahn_evo.team_evaluator import CONTROLLER_FIELDS, TeamEvaluator, distinct_teams
 from tests.envs.helpers import random_team
 

@@ -3,7 +3,7 @@ import json
 
 import numpy as np
 
-from mahn_envs.controllers import TeamControllers
+from mahn_envs.policies.team_controllers import TeamControllers
 from mahn_evo.champion import Champion
 from mahn_evo.cli import main
 from mahn_evo.margins import decision_margins

@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 
 from mahn_envs import load_map
-from mahn_envs.policy import ControllerPolicy
-from mahn_envs.scripted import WaypointTeam
+from mahn_envs.policies.controller_policy import ControllerPolicy
+from mahn_envs.policies.scripted import WaypointTeam
 from mahn_evo.cli import main
 from mahn_evo.protocols import SequentialSettings, sequential, sequential_episode, sequential_summary
 

@@ -5,7 +5,7 @@ import json
 import pytest
 
 from mahn_envs import BatchSim, patrol_return_v0
-from mahn_envs.policy import ControllerPolicy
+from mahn_envs.policies.controller_policy import ControllerPolicy
 from mahn_evo.champion import Champion
 from mahn_evo.cli import main
 from mahn_evo.config import EvolutionConfig

@@ -13,7 +13,7 @@ from pathlib import Path
 
 from mahn_envs.hardware import RetryPolicy
 from mahn_envs.hardware.clock import VirtualClock
-from mahn_envs.policy import ControllerPolicy
+from mahn_envs.policies.controller_policy import ControllerPolicy
 from mahn_evo.champion import Champion
 from mahn_evo.deploy import deploy
 from mahn_evo.eval_champion import evaluate_champion
