@@ -47,16 +47,16 @@ import numpy as np
 
 from mahn_envs.core.params import TaskParams
 from mahn_envs.policies.team_controllers import N_HIDDEN, N_OUTPUTS, TeamControllers
-from mahn_evo.files import (
+from mahn_evo.hyperneat.substrate import MODES, WEIGHT_RANGE
+from mahn_evo.hyperneat.team_evaluator import TeamEvaluator
+from mahn_evo.neat import Genome, InnovationTracker, NeatSettings, NodeGene, Population
+from mahn_evo.storage.files import (
     atomic_write_checked_json,
     atomic_write_json,
     read_checked_json,
     remove_stray_temp_files,
     versioned,
 )
-from mahn_evo.neat import Genome, InnovationTracker, NeatSettings, NodeGene, Population
-from mahn_evo.substrate import MODES, WEIGHT_RANGE
-from mahn_evo.team_evaluator import TeamEvaluator
 
 from .direct_cma import DirectEncoding, GenerationLoop
 from .io import new_run_folder

@@ -51,7 +51,7 @@ def random_teams(n: int, brains: int, seed: int = 1) -> TeamControllers:
 
 def champion_teams(n: int) -> TeamControllers:
     """The published situational champions, repeated to n teams."""
-    from mahn_evo.champion import Champion
+    from mahn_evo.training.champion import Champion
 
     published = os.path.join(ROOT, "docs", "results", "experiment_mahn_0.1", "champions")
     paths = sorted(glob.glob(os.path.join(published, "situational_*.json")))

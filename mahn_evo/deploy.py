@@ -47,7 +47,7 @@ class DeployResult:
 
 def load_team(path: str | Path) -> tuple[TeamControllers, dict[str, Any]]:
     """The controllers of a champion file (``{"controllers": {...}}``) or of a bare controllers file."""
-    from .files import read_json_object
+    from .storage.files import read_json_object
 
     data = read_json_object(path, "champion")
     ctrl = data.get("controllers", data if "w_ih" in data else None)

@@ -6,10 +6,10 @@ import csv
 import numpy as np
 import pytest
 
-from mahn_evo.config import EvolutionConfig
+from mahn_evo.hyperneat.team_evaluator import TeamEvaluator
 from mahn_evo.neat import NeatSettings, Population
-from mahn_evo.team_evaluator import TeamEvaluator
-from mahn_evo.trainer import Trainer, train
+from mahn_evo.training.config import EvolutionConfig
+from mahn_evo.training.trainer import Trainer, train
 
 NOISY = EvolutionConfig().with_noise("generalization").task
 

@@ -15,9 +15,9 @@ import numpy as np
 from mahn_envs.policies.team_controllers import _FIELDS as CONTROLLER_FIELDS
 from mahn_envs.policies.team_controllers import TeamControllers
 
-from .files import atomic_write_json, read_versioned_json, versioned
-from .neat.genome import Genome
-from .substrate import MODES
+from ..hyperneat.substrate import MODES
+from ..neat.genome import Genome
+from ..storage.files import atomic_write_json, read_versioned_json, versioned
 
 KIND = "champion"
 
@@ -87,8 +87,8 @@ DECODINGS = (("recursive", True), ("recursive", False), ("relax", True))
 def _check_controllers_match_cppn(champ: Champion, where: str) -> None:
     """The stored controllers must be what the CPPN decodes to under one of the run settings that decide decoding
     (DECODINGS), or the file mixes two teams or was edited."""
-    from .cppn import compile_genome
-    from .substrate import decode_population
+    from ..cppn import compile_genome
+    from ..hyperneat.substrate import decode_population
 
     ctrl = champ.controllers
     if ctrl.batched or ctrl.mode != champ.mode:

@@ -25,9 +25,10 @@ from typing import Any
 
 import numpy as np
 
-from .champion import Champion
-from .config import EvolutionConfig
-from .files import (
+from ..hyperneat.team_evaluator import TeamEvaluator
+from ..neat.genome import Genome
+from ..neat.population import Population
+from ..storage.files import (
     atomic_write_checked_json,
     atomic_write_csv,
     atomic_write_json,
@@ -36,10 +37,9 @@ from .files import (
     remove_stray_temp_files,
     versioned,
 )
-from .folder_lock import check_folder_usable
-from .neat.genome import Genome
-from .neat.population import Population
-from .team_evaluator import TeamEvaluator
+from ..storage.folder_lock import check_folder_usable
+from .champion import Champion
+from .config import EvolutionConfig
 
 #: settings that only decide when a run ends; they may change when a run is resumed (e.g. more generations)
 STOPPING_RULES = ("generations", "stop_when_solved", "after_solved")
@@ -243,7 +243,7 @@ class Trainer:
                    "solved": self.first_solved is not None, "first_solved_generation": self.first_solved,
                    "evaluations": self.rows[-1][1] if self.rows else 0, "wall_seconds": round(self.wall, 3)}
         atomic_write_json(self.out / "summary.json", summary)
-        from .plots import fitness_curve
+        from ..plots import fitness_curve
 
         fitness_curve(self.out / "log.csv", self.out / "fitness.png",
                       title=f"{self.config.mode}, seed {self.config.seed}, pop {pop}")

@@ -18,7 +18,7 @@ from numba import njit
 from mahn_envs.core.api import policy_coordinates
 from mahn_envs.policies.team_controllers import N_INPUTS, TeamControllers
 
-from .batch_cppn import evaluate_plans
+from ..cppn.batch import evaluate_plans
 
 MODES = ("situational", "standard")
 THRESHOLD = 0.2

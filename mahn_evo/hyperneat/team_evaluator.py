@@ -14,7 +14,7 @@ from mahn_envs.core import BatchSim, TaskParams
 from mahn_envs.maps import load_map
 from mahn_envs.policies.team_controllers import TeamControllers
 
-from .cppn import CPPN_ACTIVATIONS, compile_genome
+from ..cppn import CPPN_ACTIVATIONS, compile_genome
 from .substrate import decode_population
 
 #: How a team's fitness is taken from its episodes: "fixed" draws (episode keys 0..K-1 every generation) or fresh

@@ -15,11 +15,11 @@ from typing import Any
 from mahn_envs.core import TaskParams
 from mahn_envs.core.rng import check_seed
 
-from .cppn import CPPN_ACTIVATIONS
-from .neat.settings import NeatSettings
-from .substrate import MODES
-from .task_setup import NOISE_PRESETS
-from .team_evaluator import AGGREGATES, NOISE_DRAWS
+from ..cppn import CPPN_ACTIVATIONS
+from ..evaluation.task_setup import NOISE_PRESETS
+from ..hyperneat.substrate import MODES
+from ..hyperneat.team_evaluator import AGGREGATES, NOISE_DRAWS
+from ..neat.settings import NeatSettings
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -115,12 +115,12 @@ class EvolutionConfig:
 
     @classmethod
     def from_saved(cls, data: Mapping[str, Any]) -> EvolutionConfig:
-        """A configuration a run saved (config.json, a checkpoint's), as read by mahn_evo.files, which upgraded it
-        to the current format (mahn_evo.migrate) so it holds the values the run was made with."""
+        """A configuration a run saved (config.json, a checkpoint's), as read by mahn_evo.storage.files, which
+        upgraded it to the current format (mahn_evo.storage.migrate) so it holds the values the run was made with."""
         return cls.from_mapping({k: v for k, v in data.items() if k not in ("kind", "version")})
 
     def with_noise(self, preset: str) -> EvolutionConfig:
-        """This configuration with the task noise of a named preset (see mahn_evo.task_setup.NOISE_PRESETS)."""
+        """This configuration with the task noise of a named preset (mahn_evo.evaluation.task_setup.NOISE_PRESETS)."""
         if preset not in NOISE_PRESETS:
             raise ValueError(f"unknown noise preset {preset!r}; known: {sorted(NOISE_PRESETS)}")
         task = {**self.task.without_noise().to_dict(), **NOISE_PRESETS[preset]}
