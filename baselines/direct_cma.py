@@ -41,7 +41,7 @@ import numpy as np
 from mahn_envs.core.params import TaskParams
 from mahn_envs.policies.team_controllers import TeamControllers
 from mahn_evo.hyperneat.substrate import MODES, WEIGHT_RANGE, query_layout
-from mahn_evo.hyperneat.team_evaluator import TeamEvaluator
+from mahn_evo.hyperneat.team_evaluator import EvaluationSettings, TeamEvaluator
 from mahn_evo.storage.files import atomic_write_csv, atomic_write_json, read_versioned_json, versioned
 
 from .io import new_run_folder
@@ -182,7 +182,8 @@ class DirectCMA(GenerationLoop):
         self.cma = cma
         self.cfg = cfg
         self.out = Path(out)
-        self.evaluator = TeamEvaluator(cfg.mode, cfg.map, cfg.task_params, cfg.episodes, seed=cfg.seed)
+        self.evaluator = TeamEvaluator(EvaluationSettings(mode=cfg.mode, map=cfg.map, task=cfg.task_params,
+                                                          episodes=cfg.episodes, seed=cfg.seed))
         self.encoding = DirectEncoding(cfg.mode, self.evaluator.world.n_robots)
         self.n_robots = self.evaluator.world.n_robots
         self.es = self._new_es()

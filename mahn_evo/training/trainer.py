@@ -78,11 +78,7 @@ class Trainer:
             raise ValueError("choose one of --resume (continue the run in the folder) and --overwrite (replace it)")
         self.config = config
         self.out = check_folder_usable(out_dir, "run folder")
-        self.evaluator = TeamEvaluator(config.mode, config.map, config.task, config.episodes, seed=config.seed,
-                                       evaluate_modules=config.evaluate_modules,
-                                       cppn_activation=config.cppn_activation, noise_draws=config.noise_draws,
-                                       aggregate=config.aggregate, quantile=config.quantile,
-                                       noise_free_episode=config.noise_free_episode)
+        self.evaluator = TeamEvaluator(config.evaluation)
         self.rows: list[list] = []
         self.best_fitness = -np.inf
         self.first_solved: int | None = None
