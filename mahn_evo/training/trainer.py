@@ -13,7 +13,7 @@ Run folder:
   fitness.png      the fitness curve
 
 A fresh run refuses a folder that holds another run (--overwrite removes it first); `mahn-evo train` and each
-experiment worker hold the folder's lock (folder_lock.py) while they write.
+experiment worker hold the folder's lock (storage/folder_lock.py) while they write.
 """
 from __future__ import annotations
 
