@@ -71,7 +71,7 @@ def build_parser() -> argparse.ArgumentParser:
     e.add_argument("run", type=Path, help="a run folder of `train` or `lean`")
     e.add_argument("--maps", nargs="+", default=list(EVAL_MAPS), help="maps to score on (default: %(default)s)")
     e.add_argument("--protocols", nargs="+", default=["training", "sequential"],
-                   help="training (signal at tick 690) and/or sequential (needs mahn_evo.protocols)")
+                   help="training (signal at tick 690) and/or sequential (needs mahn_evo.evaluation.protocols)")
     e.add_argument("--episodes", type=int, default=1, help="episodes per map and protocol (default %(default)s)")
     e.add_argument("--seed", type=int, default=0, help="seed of the evaluation episodes (default %(default)s)")
     e.add_argument("--model", choices=("best", "final"), default="best",

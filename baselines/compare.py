@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from mahn_evo.files import read_json_object
+from mahn_evo.storage.files import read_json_object
 
 from .io import read_csv, read_json, write_csv, write_json
 

@@ -3,9 +3,10 @@
 
 Why: HyperNEAT differs from RL both in *how* controllers are searched (evolution, not gradients) and in *how*
 they are encoded (a CPPN painting the weights, not the weights themselves).  Evolving the weights directly,
-through the same networks (`mahn_envs.controllers.TeamControllers`), the same connections
-(`mahn_evo.substrate.query_layout`: one evolved number per substrate connection or bias, the signal input only
-in standard geometry) and the same evaluator (`mahn_evo.team_evaluator.TeamEvaluator.score`), separates the two.
+through the same networks (`mahn_envs.policies.team_controllers.TeamControllers`), the same connections
+(`mahn_evo.hyperneat.substrate.query_layout`: one evolved number per substrate connection or bias, the signal
+input only in standard geometry) and the same evaluator (`mahn_evo.hyperneat.team_evaluator.TeamEvaluator.score`),
+separates the two.
 
 Genome -> controllers: every value is clipped to [-3, 3], the range of HyperNEAT's decoded weights and
 biases; no normalisation (that is part of HyperNEAT's decoding, not of the networks).  Standard geometry has
@@ -37,11 +38,11 @@ from typing import Any
 
 import numpy as np
 
-from mahn_envs.controllers import TeamControllers
 from mahn_envs.core.params import TaskParams
-from mahn_evo.files import atomic_write_csv, atomic_write_json, read_versioned_json, versioned
-from mahn_evo.substrate import MODES, WEIGHT_RANGE, query_layout
-from mahn_evo.team_evaluator import TeamEvaluator
+from mahn_envs.policies.team_controllers import TeamControllers
+from mahn_evo.hyperneat.substrate import MODES, WEIGHT_RANGE, query_layout
+from mahn_evo.hyperneat.team_evaluator import EvaluationSettings, TeamEvaluator
+from mahn_evo.storage.files import atomic_write_csv, atomic_write_json, read_versioned_json, versioned
 
 from .io import new_run_folder
 
@@ -181,7 +182,8 @@ class DirectCMA(GenerationLoop):
         self.cma = cma
         self.cfg = cfg
         self.out = Path(out)
-        self.evaluator = TeamEvaluator(cfg.mode, cfg.map, cfg.task_params, cfg.episodes, seed=cfg.seed)
+        self.evaluator = TeamEvaluator(EvaluationSettings(mode=cfg.mode, map=cfg.map, task=cfg.task_params,
+                                                          episodes=cfg.episodes, seed=cfg.seed))
         self.encoding = DirectEncoding(cfg.mode, self.evaluator.world.n_robots)
         self.n_robots = self.evaluator.world.n_robots
         self.es = self._new_es()
@@ -324,7 +326,7 @@ def train(cfg: CMAConfig, out: str | Path, resume: bool = False,
         saved = CMAConfig.from_dict(data["config"]).to_dict()
         same = all(saved[k] == v for k, v in cfg.to_dict().items() if k not in STOPPING_RULES)
         if same and int(data["generation"]) >= cfg.generations:
-            from mahn_evo.files import read_json_object
+            from mahn_evo.storage.files import read_json_object
 
             return read_json_object(out / "summary.json", "summary")
     return DirectCMA(cfg, out, resume=resume and has_ckpt).run(on_generation, checkpoint_every)

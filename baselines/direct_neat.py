@@ -45,18 +45,18 @@ from typing import Any
 
 import numpy as np
 
-from mahn_envs.controllers import N_HIDDEN, N_OUTPUTS, TeamControllers
 from mahn_envs.core.params import TaskParams
-from mahn_evo.files import (
+from mahn_envs.policies.team_controllers import N_HIDDEN, N_OUTPUTS, TeamControllers
+from mahn_evo.hyperneat.substrate import MODES, WEIGHT_RANGE
+from mahn_evo.hyperneat.team_evaluator import EvaluationSettings, TeamEvaluator
+from mahn_evo.neat import Genome, InnovationTracker, NeatSettings, NodeGene, Population
+from mahn_evo.storage.files import (
     atomic_write_checked_json,
     atomic_write_json,
     read_checked_json,
     remove_stray_temp_files,
     versioned,
 )
-from mahn_evo.neat import Genome, InnovationTracker, NeatSettings, NodeGene, Population
-from mahn_evo.substrate import MODES, WEIGHT_RANGE
-from mahn_evo.team_evaluator import TeamEvaluator
 
 from .direct_cma import DirectEncoding, GenerationLoop
 from .io import new_run_folder
@@ -229,7 +229,8 @@ class DirectNEAT(GenerationLoop):
         self.cfg = cfg
         self.out = Path(out)
         self.settings = cfg.neat_settings
-        self.evaluator = TeamEvaluator(cfg.mode, cfg.map, cfg.task_params, cfg.episodes, seed=cfg.seed)
+        self.evaluator = TeamEvaluator(EvaluationSettings(mode=cfg.mode, map=cfg.map, task=cfg.task_params,
+                                                          episodes=cfg.episodes, seed=cfg.seed))
         self.n_robots = self.evaluator.world.n_robots
         self.genes = SubstrateGenes(cfg.mode, self.n_robots)
         self.rows: list[list] = []

@@ -35,7 +35,7 @@ def evaluate_run(run_dir: str | Path, maps: Sequence[str] = EVAL_MAPS,
                  which: str = "best", stochastic: bool = False, write: bool = True) -> dict[str, Any]:
     """Evaluate a run directory; returns (and writes `eval.json`) {protocol: {map: summary}}.
 
-    A protocol that is not available (e.g. `sequential` before `mahn_evo.protocols` exists) is reported as
+    A protocol that is not available (e.g. `sequential` before `mahn_evo.evaluation.protocols` exists) is reported as
     `{"error": message}` for that protocol instead of aborting the other evaluations.
     """
     import torch

@@ -8,7 +8,7 @@ from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from mahn_evo.files import atomic_write_text
+from mahn_evo.storage.files import atomic_write_text
 
 
 def _atomic_write_text(path: Path, text: str) -> None:
@@ -42,7 +42,7 @@ def read_csv(path: str | Path) -> list[dict[str, str]]:
 
 def new_run_folder(out: Path, kind: str, config: Mapping[str, Any]) -> None:
     """Start a run in `out`: refuse a folder that already holds one (it must be resumed), then write its config."""
-    from mahn_evo.files import atomic_write_json, versioned
+    from mahn_evo.storage.files import atomic_write_json, versioned
 
     if (out / "checkpoint.json").exists():
         raise ValueError(f"{str(out)!r} already holds a run (checkpoint.json); resume it or choose another --out")

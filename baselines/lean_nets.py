@@ -12,7 +12,7 @@ import numpy as np
 import torch
 from torch import nn
 
-from mahn_envs.team_policy import DictActFromBatch
+from mahn_envs.policies.team_policy import DictActFromBatch
 
 from .lean_config import LeanConfig
 from .vec_env import N_SENSOR_INPUTS, slot_observations

@@ -33,7 +33,7 @@ import numpy as np
 import torch
 from torch import nn
 
-from mahn_evo.files import atomic_write_json, read_versioned_json, versioned
+from mahn_evo.storage.files import atomic_write_json, read_versioned_json, versioned
 
 from .io import new_run_folder, write_csv
 from .lean_config import STOPPING_RULES, LeanConfig

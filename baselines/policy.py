@@ -1,7 +1,7 @@
 """A trained SB3 model as a *team policy*: the interface evaluation protocols drive.
 
 A protocol only needs `reset(n_episodes)` and `act_batch(obs (B, R, 7)) -> actions (B, R)`; for protocols
-written around PettingZoo envs and evolved teams (`mahn_envs.policy.ControllerPolicy`) the adapter also offers
+written around PettingZoo envs and evolved teams (`mahn_envs.policies.ControllerPolicy`) the adapter also offers
 the same `reset()` / `act({agent: obs}) -> {agent: action}` methods, so RL policies and evolved teams can be
 scored by one protocol implementation.
 """
@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 
-from mahn_envs.team_policy import DictActFromBatch
+from mahn_envs.policies.team_policy import DictActFromBatch
 
 from .vec_env import slot_observations
 

@@ -1,10 +1,10 @@
 """Evaluation protocols as pluggable functions: (team policy, map, task params, episodes, seed) -> scores.
 
-`training` is the protocol evolution trains on (all robots signalled at tick `signal_tick`), run here on the
-batch core so B episodes go in lock-step.  `sequential` (the paper's real-world protocol: robots called home
-one at a time, robots see and bump each other, pymunk engine) is owned by `mahn_evo.protocols`; we delegate to
-it so RL and evolution are scored by the same code.  Every team (evolved, RL, scripted on the training protocol)
-implements :class:`mahn_envs.team_policy.TeamPolicy`.  Register more protocols with `register_protocol`.
+`training` is the protocol evolution trains on (all robots signalled at tick `signal_tick`), run here on the batch
+core so B episodes go in lock-step.  `sequential` (the paper's real-world protocol: robots called home one at a time,
+robots see and bump each other, pymunk engine) is owned by `mahn_evo.evaluation.protocols`; we delegate to it so RL
+and evolution are scored by the same code.  Every team (evolved, RL, scripted on the training protocol) implements
+:class:`mahn_envs.policies.team_policy.TeamPolicy`.  Register more protocols with `register_protocol`.
 """
 from __future__ import annotations
 
@@ -16,8 +16,8 @@ import numpy as np
 
 from mahn_envs.core.batch import BatchSim
 from mahn_envs.core.params import TaskParams
-from mahn_envs.team_policy import TeamPolicy
-from mahn_evo import protocols as evo_protocols
+from mahn_envs.policies.team_policy import TeamPolicy
+from mahn_evo.evaluation import protocols as evo_protocols
 
 
 @dataclass
@@ -51,8 +51,8 @@ def training_protocol(policy: TeamPolicy, map: str, params: TaskParams, episodes
 
 
 def sequential_protocol(policy: TeamPolicy, map: str, params: TaskParams, episodes: int, seed: int) -> Scores:
-    """Delegates to `mahn_evo.protocols.sequential(policy, map=, params=, episodes=, seed=)`, which drives the
-    policy's dict form (`reset()`, `act({agent: obs})`) and returns per-episode fitness and solved."""
+    """Delegates to `mahn_evo.evaluation.protocols.sequential(policy, map=, params=, episodes=, seed=)`, which
+    drives the policy's dict form (`reset()`, `act({agent: obs})`) and returns per-episode fitness and solved."""
     result = evo_protocols.sequential(policy, map=map, params=params, episodes=episodes, seed=seed)
     get = result.get if isinstance(result, dict) else (lambda k: getattr(result, k))
     return Scores(np.atleast_1d(np.asarray(get("fitness"), dtype=np.float64)),

@@ -30,7 +30,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from mahn_evo.files import atomic_write_json
+from mahn_evo.storage.files import atomic_write_json
 
 from .io import read_csv
 from .lean_config import METHODS, RECURRENT_METHODS, LeanConfig

@@ -35,7 +35,7 @@ ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
 sys.path.insert(0, ROOT)
 
 from mahn_envs import patrol_return_v0 as new_env  # noqa: E402
-from mahn_envs.controllers import TeamControllers  # noqa: E402
+from mahn_envs.policies.team_controllers import TeamControllers  # noqa: E402
 
 FIELDS = ("w_ih", "w_hh", "w_ho", "b_h", "b_o")
 
@@ -51,7 +51,7 @@ def random_teams(n: int, brains: int, seed: int = 1) -> TeamControllers:
 
 def champion_teams(n: int) -> TeamControllers:
     """The published situational champions, repeated to n teams."""
-    from mahn_evo.champion import Champion
+    from mahn_evo.training.champion import Champion
 
     published = os.path.join(ROOT, "docs", "results", "experiment_mahn_0.1", "champions")
     paths = sorted(glob.glob(os.path.join(published, "situational_*.json")))

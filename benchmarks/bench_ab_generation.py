@@ -37,9 +37,14 @@ sys.path.insert(0, code)
 import numpy as np
 import mahn_evo
 assert mahn_evo.__file__.startswith(code), (mahn_evo.__file__, code)
-from mahn_evo.config import EvolutionConfig
-from mahn_evo.files import read_versioned_json
-from mahn_evo.trainer import Trainer
+try:  # the layout since issue 13 (mahn_evo/training/, mahn_evo/storage/)
+    from mahn_evo.storage.files import read_versioned_json
+    from mahn_evo.training.config import EvolutionConfig
+    from mahn_evo.training.trainer import Trainer
+except ModuleNotFoundError:  # a revision from before it: the same modules at the top of mahn_evo/
+    from mahn_evo.config import EvolutionConfig
+    from mahn_evo.files import read_versioned_json
+    from mahn_evo.trainer import Trainer
 with tempfile.TemporaryDirectory() as d:
     shutil.copytree(run_dir, d, dirs_exist_ok=True)
     cfg = EvolutionConfig.from_saved(read_versioned_json(f"{d}/config.json", "config"))
@@ -81,9 +86,9 @@ def unpack_revision(rev: str, into: str) -> str:
 def make_run(folder: str, pop: int, skip: int, init: str, episodes: int, noise: str) -> None:
     """Train `skip` generations with this checkout into `folder` (the starting point of every worker)."""
     sys.path.insert(0, ROOT)
-    from mahn_evo.config import EvolutionConfig
-    from mahn_evo.task_setup import task_params
-    from mahn_evo.trainer import Trainer
+    from mahn_evo.evaluation.task_setup import task_params
+    from mahn_evo.training.config import EvolutionConfig
+    from mahn_evo.training.trainer import Trainer
 
     cfg = EvolutionConfig(init=init, episodes=episodes, generations=max(skip, 1),
                       task=task_params(noise)).with_overrides(pop=pop)
@@ -130,7 +135,8 @@ def main() -> None:
     ap.add_argument("--skip", type=int, default=20, help="generations trained before timing")
     ap.add_argument("--init", default="iros2011")
     ap.add_argument("--episodes", type=int, default=1)
-    ap.add_argument("--noise", default="none", help="task noise preset of mahn_evo.task_setup (none, generalization)")
+    ap.add_argument("--noise", default="none", help="task noise preset of mahn_evo.evaluation.task_setup (none, "
+                                                     "generalization)")
     args = ap.parse_args()
     rows = []
     with tempfile.TemporaryDirectory() as tmp:

@@ -22,8 +22,12 @@ ROOT = os.path.abspath(os.path.join(os.path.dirname(os.path.abspath(__file__)), 
 _CHILD = r"""
 import sys, tempfile, time
 import numpy as np
-from mahn_evo.config import EvolutionConfig
-from mahn_evo.trainer import Trainer
+try:  # the layout since issue 13 (mahn_evo/training/)
+    from mahn_evo.training.config import EvolutionConfig
+    from mahn_evo.training.trainer import Trainer
+except ModuleNotFoundError:  # a revision from before it: the same modules at the top of mahn_evo/
+    from mahn_evo.config import EvolutionConfig
+    from mahn_evo.trainer import Trainer
 pop, gens, reps = map(int, sys.argv[1:4])
 cfg = EvolutionConfig(generations=1000).with_overrides(pop=pop)
 with tempfile.TemporaryDirectory() as d:

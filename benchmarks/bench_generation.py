@@ -18,8 +18,8 @@ import numpy as np
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
 
 from mahn_envs.core import TaskParams  # noqa: E402
-from mahn_evo.config import EvolutionConfig  # noqa: E402
-from mahn_evo.trainer import Trainer  # noqa: E402
+from mahn_evo.training.config import EvolutionConfig  # noqa: E402
+from mahn_evo.training.trainer import Trainer  # noqa: E402
 
 
 def main() -> None:

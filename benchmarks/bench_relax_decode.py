@@ -23,7 +23,7 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, ROOT)
 
 from mahn_evo.cppn.relax import _relax, compile_relax  # noqa: E402
-from mahn_evo.substrate import query_layout  # noqa: E402
+from mahn_evo.hyperneat.substrate import query_layout  # noqa: E402
 
 
 def _old_relax(rev: str):

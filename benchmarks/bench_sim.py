@@ -20,7 +20,7 @@ import numpy as np
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
 
 from mahn_envs import BatchSim, patrol_return_v0  # noqa: E402
-from mahn_envs.controllers import TeamControllers  # noqa: E402
+from mahn_envs.policies.team_controllers import TeamControllers  # noqa: E402
 
 
 def random_teams(n: int, seed: int = 0) -> TeamControllers:

@@ -7,7 +7,7 @@ import tempfile
 from pathlib import Path
 
 from mahn_envs import load_map, patrol_return_v0
-from mahn_envs.scripted import run_scripted_episode
+from mahn_envs.policies.scripted import run_scripted_episode
 
 arena = load_map("plus").to_dict()
 arena["name"] = "tall_plus"

@@ -17,7 +17,6 @@ import json
 
 import numpy as np
 
-from mahn_envs.controllers import TeamControllers
 from mahn_envs.hardware import (
     KheperaEmulator,
     KheperaHardwareEnv,
@@ -28,8 +27,9 @@ from mahn_envs.hardware import (
     Timing,
     VirtualClock,
 )
-from mahn_envs.policy import ControllerPolicy
-from mahn_envs.scripted import WaypointTeam
+from mahn_envs.policies.controller_policy import ControllerPolicy
+from mahn_envs.policies.scripted import WaypointTeam
+from mahn_envs.policies.team_controllers import TeamControllers
 
 
 def main() -> None:

@@ -6,7 +6,7 @@ Usage: python examples/scripted_team_gif.py [out.gif]   (default runs/examples/s
 import sys
 
 from mahn_envs import patrol_return_v0
-from mahn_envs.scripted import WaypointTeam
+from mahn_envs.policies.scripted import WaypointTeam
 from mahn_evo.plots import save_gif
 
 out = sys.argv[1] if len(sys.argv) > 1 else "runs/examples/scripted_team.gif"  # save_gif makes the folder

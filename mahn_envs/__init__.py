@@ -8,10 +8,10 @@ from __future__ import annotations
 import pettingzoo as _pz
 
 from . import patrol_return_v0
-from .controllers import TeamControllers
 from .core import BatchSim, TaskParams
 from .khepera import KheperaModel
 from .maps import World, load_map
+from .policies.team_controllers import TeamControllers
 
 ENV_ID = "mahn/patrol_return-v0"
 if ENV_ID not in _pz.parallel_registry:

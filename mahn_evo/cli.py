@@ -7,12 +7,12 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
-from .config import INITS, EvolutionConfig, load_config_file
 from .cppn import CPPN_ACTIVATIONS
-from .presets import PRESETS, apply_preset
-from .substrate import MODES
-from .task_setup import NOISE_PRESETS
-from .team_evaluator import AGGREGATES, NOISE_DRAWS
+from .evaluation.task_setup import NOISE_PRESETS
+from .hyperneat.substrate import MODES
+from .hyperneat.team_evaluator import AGGREGATES, NOISE_DRAWS
+from .training.config import INITS, EvolutionConfig, load_config_file
+from .training.presets import PRESETS, apply_preset
 
 
 def _fidelity_and_robustness_options(p: argparse.ArgumentParser) -> None:
@@ -215,8 +215,8 @@ def cmd_experiment(args) -> int:
 
 
 def cmd_generalize(args) -> int:
-    from .generalize import generalize
-    from .task_setup import task_params
+    from .evaluation.generalize import generalize
+    from .evaluation.task_setup import task_params
 
     rows = generalize(args.run_dir, episodes=args.episodes, map=args.map, params=task_params(args.noise),
                       seed=args.seed)
@@ -255,7 +255,7 @@ def _progress_printer(quiet: bool, total: int):
 
 
 def cmd_train(args) -> int:
-    from .trainer import Trainer
+    from .training.trainer import Trainer
 
     base = EvolutionConfig()
     if args.preset:
@@ -268,13 +268,13 @@ def cmd_train(args) -> int:
                      cppn_activation=args.cppn_activation, noise_draws=args.noise_draws, aggregate=args.aggregate,
                      quantile=args.quantile, noise_free_episode=args.noise_free_episode)
     if args.resume and (args.out / "config.json").exists() and not args.config and not args.preset:
-        from .files import read_versioned_json
+        from .storage.files import read_versioned_json
 
         base = EvolutionConfig.from_saved(read_versioned_json(args.out / "config.json", "config"))
     config = base.with_overrides(**overrides)
     if args.noise is not None:
         config = config.with_noise(args.noise)
-    from .folder_lock import folder_lock
+    from .storage.folder_lock import folder_lock
 
     with folder_lock(args.out, "run folder"):
         return _run_training(args, Trainer(config, args.out, resume=args.resume, overwrite=args.overwrite), config)
@@ -294,7 +294,7 @@ def _run_training(args, trainer, config: EvolutionConfig) -> int:
               f"mahn-evo train --out {args.out} --resume", file=sys.stderr)
         return 130
     if args.gif and (args.out / "champion.json").exists():
-        from .eval_champion import evaluate_champion
+        from .evaluation.eval_champion import evaluate_champion
 
         evaluate_champion(args.out / "champion.json", map=config.map, video=args.out / "champion.gif")
         _trajectory_png(args.out / "champion.json", config.map, args.out / "champion.png")
@@ -305,8 +305,8 @@ def _run_training(args, trainer, config: EvolutionConfig) -> int:
 def _trajectory_png(champion_path: Path, map_name: str, out_png: Path) -> dict:
     from mahn_envs.core import BatchSim
 
-    from .champion import Champion
     from .plots import trajectory_plot
+    from .training.champion import Champion
 
     champ = Champion.load(champion_path)
     sim = BatchSim(map_name, 1)
@@ -319,24 +319,24 @@ def _trajectory_png(champion_path: Path, map_name: str, out_png: Path) -> dict:
 
 
 def cmd_eval(args) -> int:
-    from .eval_champion import evaluate_champion
-    from .task_setup import task_params
+    from .evaluation.eval_champion import evaluate_champion
+    from .evaluation.task_setup import task_params
 
     params = task_params(args.noise, sensor_noise=args.sensor_noise, effector_noise=args.effector_noise,
                          heading_noise=args.heading_noise, start_jitter_xy=args.start_jitter_xy,
                          start_jitter_heading=args.start_jitter_heading)
     if args.protocol == "sequential":
-        from mahn_envs.policy import ControllerPolicy
+        from mahn_envs.policies.controller_policy import ControllerPolicy
 
-        from .champion import Champion
-        from .protocols import sequential, sequential_summary
+        from .evaluation.protocols import sequential, sequential_summary
+        from .training.champion import Champion
 
         champ = Champion.load(args.champion)
         policy = ControllerPolicy(champ.controllers, [f"robot_{k}" for k in range(champ.controllers.n_robots)])
         result = sequential(policy, map=args.map, params=params, episodes=args.episodes, seed=args.seed)
         if args.video or args.plot:  # the first episode again, filmed / recorded
+            from .evaluation.protocols import sequential_episode
             from .plots import save_gif, trajectory_plot
-            from .protocols import sequential_episode
 
             frames: list | None = [] if args.video else None
             ep = sequential_episode(policy, map=args.map, params=params, seed=args.seed, record=True,
@@ -362,7 +362,7 @@ def cmd_eval(args) -> int:
     if args.plot:
         _trajectory_png(args.champion, args.map, args.plot)
     if args.margins:
-        from .margins import decision_margins
+        from .evaluation.margins import decision_margins
 
         result["margins"] = decision_margins(args.champion, map=args.map, params=params, seed=args.seed)
     if args.json:

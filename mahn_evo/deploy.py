@@ -25,9 +25,9 @@ from typing import Any
 
 import numpy as np
 
-from mahn_envs.controllers import TeamControllers
 from mahn_envs.core.params import ORIGINAL_MAX_TICKS, ORIGINAL_SIGNAL_TICK
-from mahn_envs.policy import ControllerPolicy
+from mahn_envs.policies.controller_policy import ControllerPolicy
+from mahn_envs.policies.team_controllers import TeamControllers
 
 LOG_HEADER = ("tick", "time", "agent", "ir0", "ir1", "ir2", "ir3", "ir4", "ir5", "signal", "out_left",
               "out_forward", "out_right", "action", "motion", "command", "period", "x", "y", "heading")
@@ -47,7 +47,7 @@ class DeployResult:
 
 def load_team(path: str | Path) -> tuple[TeamControllers, dict[str, Any]]:
     """The controllers of a champion file (``{"controllers": {...}}``) or of a bare controllers file."""
-    from .files import read_json_object
+    from .storage.files import read_json_object
 
     data = read_json_object(path, "champion")
     ctrl = data.get("controllers", data if "w_ih" in data else None)

@@ -10,9 +10,9 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..controllers import TeamControllers
 from ..khepera import DEFAULT_MODEL, KheperaModel
 from ..maps import World, load_map, wall_clearance
+from ..policies.team_controllers import TeamControllers
 from . import kernels
 from . import task as T
 from .api import Arena

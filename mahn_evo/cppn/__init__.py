@@ -5,6 +5,9 @@ Usage::
     from mahn_evo.cppn import compile_cppn
     plan = compile_cppn(genome, evaluate_modules=False)   # once per genome
     out = plan.evaluate(queries)                           # (Q, n_inputs) -> (Q, n_outputs), float32
+
+`batch.evaluate_plans` evaluates a whole population's plans together, bit-identical to one by one (the
+substrate decodes a generation through it).
 """
 
 from .activations import ACTIVATIONS, activation_code

@@ -30,10 +30,10 @@ def run_one(config: dict[str, Any], run_dir: str, threads: int = 1) -> dict[str,
     """Run (or finish, or just read) one training run, holding its folder's lock; returns its summary."""
     import numba
 
-    from ..config import EvolutionConfig
-    from ..files import read_json_object
-    from ..folder_lock import folder_lock
-    from ..trainer import Trainer
+    from ..storage.files import read_json_object
+    from ..storage.folder_lock import folder_lock
+    from ..training.config import EvolutionConfig
+    from ..training.trainer import Trainer
 
     numba.set_num_threads(max(1, min(threads, numba.config.NUMBA_NUM_THREADS)))
     cfg = EvolutionConfig.from_mapping(config)

@@ -14,11 +14,11 @@ from typing import Any
 
 from mahn_envs.core.rng import check_seed
 
-from ..config import INITS, EvolutionConfig
-from ..files import atomic_write_json, read_versioned_json, versioned
-from ..migrate import V1_CHANGED_NEAT_DEFAULTS
+from ..hyperneat.substrate import MODES
 from ..neat.settings import NeatSettings
-from ..substrate import MODES
+from ..storage.files import atomic_write_json, read_versioned_json, versioned
+from ..storage.migrate import V1_CHANGED_NEAT_DEFAULTS
+from ..training.config import INITS, EvolutionConfig
 
 PLAN_FILE = "experiment.json"
 

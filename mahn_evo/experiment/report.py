@@ -11,9 +11,9 @@ import numpy as np
 
 from mahn_envs.maps import load_map
 
-from ..champion import Champion
-from ..files import atomic_write_csv, atomic_write_json, atomic_write_text, versioned
 from ..plots import ROBOT_COLOURS, _mpl, draw_world
+from ..storage.files import atomic_write_csv, atomic_write_json, atomic_write_text, versioned
+from ..training.champion import Champion
 from .plan import ExperimentPlan
 from .table import PAPER, RunRecord, curves, fisher, load_runs, mode_table
 from .transfer import TRANSFER_MAPS, most_general, replays, trajectories, transfer_tests

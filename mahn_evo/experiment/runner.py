@@ -11,8 +11,8 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from ..files import remove_stray_temp_files
-from ..folder_lock import folder_lock, lock_holder
+from ..storage.files import remove_stray_temp_files
+from ..storage.folder_lock import folder_lock, lock_holder
 from .backends import run_tasks
 from .plan import PLAN_FILE, ExperimentPlan
 from .report import write_results

@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from ..files import atomic_write_json, atomic_write_text
+from ..storage.files import atomic_write_json, atomic_write_text
 from .plan import ExperimentPlan
 from .table import RunRecord, load_runs
 

@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from ..files import read_json_object
+from ..storage.files import read_json_object
 from .plan import ExperimentPlan
 
 #: The paper's figures (IROS 2011, 15 runs per mode, population 500, up to 1000 generations).

@@ -14,14 +14,14 @@ from typing import Any
 import numpy as np
 
 from mahn_envs.core import BatchSim
-from mahn_envs.policy import ControllerPolicy
+from mahn_envs.policies.controller_policy import ControllerPolicy
 
-from ..champion import Champion
-from ..eval_champion import evaluate_champion
-from ..generalize import generalize
-from ..margins import decision_margins
-from ..protocols import sequential, sequential_episode
-from ..task_setup import task_params
+from ..evaluation.eval_champion import evaluate_champion
+from ..evaluation.generalize import generalize
+from ..evaluation.margins import decision_margins
+from ..evaluation.protocols import sequential, sequential_episode
+from ..evaluation.task_setup import task_params
+from ..training.champion import Champion
 from .plan import ExperimentPlan
 from .table import RunRecord
 

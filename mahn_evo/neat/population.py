@@ -30,7 +30,7 @@ from typing import Any
 
 import numpy as np
 
-from ..migrate import FORMAT_VERSION, POPULATION_FORMAT, upgrade_population
+from ..storage.migrate import FORMAT_VERSION, POPULATION_FORMAT, upgrade_population
 from .genome import Genome
 from .initial import initial_population
 from .innovation import InnovationTracker
@@ -385,7 +385,7 @@ class Population:
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> Population:
         """Restore a population saved by :meth:`to_dict` (e.g. after ``json.loads``); a state of an older format
-        version is upgraded first (mahn_evo.migrate)."""
+        version is upgraded first (mahn_evo.storage.migrate)."""
         if data.get("format") != FORMAT:
             raise ValueError(f"Population.from_dict: not a {FORMAT} document (format={data.get('format')!r})")
         data = upgrade_population(data, "Population.from_dict")

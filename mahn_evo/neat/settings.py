@@ -95,7 +95,7 @@ class SelectionSettings:
     #: GenomeComparer (fitness descending, then genome age ascending), so equally fit offspring replace old elites
     #: and the population drifts neutrally along the plateau.  "oldest": first-born first, which freezes the elites
     #: on a plateau; it was mahn 0.1's rule, and files of format version 1 without this setting used it (see
-    #: mahn_evo.migrate).
+    #: mahn_evo.storage.migrate).
     tie_break: str = "youngest"
     #: Fitness values are raised to at least this floor (the original's max(F, 1e-7)); roulettes need them > 0.
     fitness_floor: float = 1e-7
@@ -198,7 +198,8 @@ class SpeciationSettings:
     weight_difference_mean: bool = False
     #: A full re-speciation first tries the species of a genome's parents (by species id, among the species formed
     #: so far), then every species in order, as SharpNEAT 1.0's RedetermineSpeciation.  False: every species in
-    #: order only (mahn 0.1's rule; files of format version 1 without this setting used it, see mahn_evo.migrate).
+    #: order only (mahn 0.1's rule; files of format version 1 without this setting used it, see
+    #: mahn_evo.storage.migrate).
     respeciate_parents_first: bool = True
     #: Order in which a genome that fits none of its parents' species tries the other species (offspring placement
     #: and full re-speciation).  "id": oldest species first (mahn's rule; it funnels genomes into old species).
@@ -257,7 +258,7 @@ class InitialisationSettings:
 @dataclass(frozen=True)
 class CppnSettings:
     """How a genome's CPPN is activated, as far as NEAT records it.  The trainer reads the top-level
-    ``evaluate_modules`` of its configuration instead (see mahn_evo.config), so there this stays False."""
+    ``evaluate_modules`` of its configuration instead (see mahn_evo.training.config), so there this stays False."""
 
     #: False reproduces the original (module outputs are always 0, so the seed's Multiply modules are dead);
     #: True evaluates Multiply modules, the "intended behaviour" ablation.

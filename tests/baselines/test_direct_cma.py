@@ -13,7 +13,7 @@ from baselines.compare import evo_curve  # noqa: E402
 from baselines.direct_cma import CMAConfig, DirectCMA, DirectEncoding, train  # noqa: E402
 from mahn_envs.core.batch import BatchSim  # noqa: E402
 from mahn_envs.core.params import TaskParams  # noqa: E402
-from mahn_evo.substrate import query_layout  # noqa: E402
+from mahn_evo.hyperneat.substrate import query_layout  # noqa: E402
 
 SHORT = dict(max_cycles=300, signal_tick=150)
 

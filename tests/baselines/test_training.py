@@ -78,7 +78,7 @@ def test_cli_eval_both_maps_and_protocol_report(ppo_run, capsys) -> None:
     training = res["protocols"]["training"]
     assert set(training) == {"plus", "asymmetric_plus"}
     assert all({"fitness", "solved"} <= set(v) for v in training.values())
-    seq = res["protocols"]["sequential"]  # the real-world protocol, through mahn_evo.protocols
+    seq = res["protocols"]["sequential"]  # the real-world protocol, through mahn_evo.evaluation.protocols
     assert "error" not in seq and set(seq) == {"plus", "asymmetric_plus"}
     assert all({"fitness", "solved"} <= set(v) for v in seq.values())
 

@@ -1,6 +1,6 @@
 import numpy as np
 
-from mahn_envs.controllers import TeamControllers
+from mahn_envs.policies.team_controllers import TeamControllers
 
 
 def random_team(seed: int, n_brains: int = 2, scale: float = 1.5, n_robots: int = 3) -> TeamControllers:

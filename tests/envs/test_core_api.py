@@ -30,7 +30,7 @@ CHAMPIONS = sorted(PUBLISHED.glob("*.json"))
 
 
 def _champions():
-    from mahn_evo.champion import Champion
+    from mahn_evo.training.champion import Champion
 
     champs = [Champion.load(p) for p in CHAMPIONS]
     teams = [c.controllers for c in champs if c.controllers.w_ih.shape[1] == 2]  # situational: the return works
@@ -184,7 +184,7 @@ def test_arena_accessors_and_wall_rule():
 @pytest.mark.parametrize("n", [1, 3, 4, 5])
 def test_policy_coordinates_are_the_substrates(n):
     """The env's z (agent_policy_coordinates) is the one the trainer paints brains at (the substrate's queries)."""
-    from mahn_evo.substrate import query_layout
+    from mahn_evo.hyperneat.substrate import query_layout
 
     zs = list(agent_policy_coordinates(agent_names(n)).values())
     assert zs == policy_coordinates(n).tolist()

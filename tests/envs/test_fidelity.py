@@ -4,8 +4,8 @@ import pytest
 
 from mahn_envs import BatchSim, patrol_return_v0
 from mahn_envs.core import TaskParams
-from mahn_envs.policy import ControllerPolicy
-from mahn_envs.scripted import run_scripted_episode
+from mahn_envs.policies.controller_policy import ControllerPolicy
+from mahn_envs.policies.scripted import run_scripted_episode
 
 from .helpers import random_team
 
@@ -62,7 +62,7 @@ def test_scripted_team_solves_the_plus_map():
 
 def test_team_frozen_after_the_signal_is_not_solved():
     env = patrol_return_v0.parallel_env()
-    from mahn_envs.scripted import WaypointTeam
+    from mahn_envs.policies.scripted import WaypointTeam
 
     obs, infos = env.reset(seed=0)
     team = WaypointTeam(env.world, env.possible_agents)
@@ -77,7 +77,7 @@ def test_team_frozen_after_the_signal_is_not_solved():
 
 def test_episode_rewards_sum_to_team_fitness():
     env = patrol_return_v0.parallel_env()
-    from mahn_envs.scripted import WaypointTeam
+    from mahn_envs.policies.scripted import WaypointTeam
 
     obs, infos = env.reset(seed=0)
     team = WaypointTeam(env.world, env.possible_agents)
@@ -105,7 +105,7 @@ def test_controllers_in_core_and_env_agree(brains):
 
 def test_batch_is_parallel_safe_and_order_independent():
     teams = [random_team(s, n_brains=2) for s in range(6)]
-    from mahn_envs.controllers import TeamControllers
+    from mahn_envs.policies.team_controllers import TeamControllers
 
     batch = TeamControllers.stack(teams)
     params = TaskParams(sensor_noise=5, effector_noise=5, heading_noise=0.01)

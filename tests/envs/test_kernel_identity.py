@@ -226,7 +226,7 @@ CHAMPIONS = sorted(PUBLISHED.glob("*.json"))
 
 
 def _champion_batch(kind: str):
-    from mahn_evo.champion import Champion
+    from mahn_evo.training.champion import Champion
 
     champs = [Champion.load(p) for p in CHAMPIONS if p.name.startswith(kind)]
     teams = [c.controllers for c in champs]

@@ -6,7 +6,7 @@ import pytest
 
 from mahn_envs import load_map, patrol_return_v0
 from mahn_envs.core.params import ORIGINAL_MAX_TICKS
-from mahn_envs.scripted import run_scripted_episode
+from mahn_envs.policies.scripted import run_scripted_episode
 
 
 def test_plus_is_the_mirrored_original():

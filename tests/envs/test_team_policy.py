@@ -7,9 +7,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mahn_envs.policy import ControllerPolicy
-from mahn_envs.team_policy import TeamPolicy
-from mahn_evo.champion import Champion
+from mahn_envs.policies.controller_policy import ControllerPolicy
+from mahn_envs.policies.team_policy import TeamPolicy
+from mahn_evo.training.champion import Champion
 
 PUBLISHED = Path(__file__).parents[2] / "docs" / "results" / "experiment_mahn_0.1" / "champions"
 CHAMPION = PUBLISHED / "situational_s012.json"

@@ -7,13 +7,13 @@ import json
 import numpy as np
 import pytest
 
-from mahn_evo.config import EvolutionConfig
 from mahn_evo.cppn import compile_cppn, compile_genome, compile_relax
 from mahn_evo.cppn.relax import relax_steps
 from mahn_evo.neat import Genome, NeatSettings, Population
 from mahn_evo.neat.initial import iros2011_seed_genome
 from mahn_evo.neat.speciation import Species, first_compatible, order_keys
-from mahn_evo.presets import PRESETS, apply_preset
+from mahn_evo.training.config import EvolutionConfig
+from mahn_evo.training.presets import PRESETS, apply_preset
 from tests.evo.helpers import random_genome
 
 

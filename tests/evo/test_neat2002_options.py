@@ -21,7 +21,7 @@ def _g(weights):
 
 
 def test_later_fields_round_trip_and_an_absent_one_means_its_default():
-    """Version-1 files left these settings out at their default (mahn_evo.migrate): absent means default."""
+    """Version-1 files left these settings out at their default (mahn_evo.storage.migrate): absent means default."""
     later = {"crossover_mutation_probability", "population_stagnation_generations", "weight_difference_mean",
              "species_order", "stagnation_rule"}
     d = NeatSettings().to_dict()

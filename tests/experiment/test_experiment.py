@@ -11,7 +11,7 @@ from scipy.stats import fisher_exact
 from mahn_evo.cli import main
 from mahn_evo.experiment import ExperimentPlan, run_experiment
 from mahn_evo.experiment.table import RunRecord, fisher, mode_table
-from mahn_evo.trainer import Trainer
+from mahn_evo.training.trainer import Trainer
 
 SMALL = dict(runs=2, seed=5, generations=3, population=16, max_cycles=240, signal_tick=120, general_episodes=3,
              transfer_episodes=1, top=1, replays=0)

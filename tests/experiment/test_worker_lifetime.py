@@ -67,7 +67,7 @@ def test_sigkill_of_the_experiment_ends_its_workers(tmp_path):
     assert not survivors, "workers outlived the killed experiment"
 
 
-_HOLD = ("import sys, time; from mahn_evo.folder_lock import folder_lock\n"
+_HOLD = ("import sys, time; from mahn_evo.storage.folder_lock import folder_lock\n"
          "with folder_lock(sys.argv[1], 'run folder'):\n    print('held', flush=True); time.sleep(60)")
 
 

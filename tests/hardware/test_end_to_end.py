@@ -1,6 +1,6 @@
 """The whole hardware path on loopback: env -> pyserial -> TCP -> emulator -> simulator geometry and back.
 
-A scripted waypoint team (mahn_envs.scripted.WaypointTeam, steering from the poses the emulator's "overhead
+A scripted waypoint team (mahn_envs.policies.scripted.WaypointTeam, steering from the poses the emulator's "overhead
 tracker" reports) completes patrol-and-return through the emulator, scored by the simulator's own fitness
 code.  This proves the hardware path is right end to end - wheel commands in firmware units move robots at
 the simulator's speeds and turn rates, the pacing gives 33 ms ticks, the signal schedule reaches the agents,
@@ -17,7 +17,7 @@ import pytest
 
 from mahn_envs.hardware import Episode, KheperaHardwareEnv, Link, Poses, RealClock, RetryPolicy, Timing, VirtualClock
 from mahn_envs.hardware import protocol as P
-from mahn_envs.scripted import WaypointTeam
+from mahn_envs.policies.scripted import WaypointTeam
 from mahn_evo.deploy import LOG_HEADER, deploy
 
 from ..envs.helpers import random_team

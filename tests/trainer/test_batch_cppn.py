@@ -2,12 +2,12 @@
 import numpy as np
 import pytest
 
-from mahn_evo import batch_cppn
-from mahn_evo.batch_cppn import evaluate_plans
 from mahn_evo.cppn import CppnPlan, compile_cppn
+from mahn_evo.cppn import batch as batch_cppn
+from mahn_evo.cppn.batch import evaluate_plans
+from mahn_evo.hyperneat.substrate import query_layout
 from mahn_evo.neat.population import Population
 from mahn_evo.neat.settings import NeatSettings
-from mahn_evo.substrate import query_layout
 
 
 def _evolved_genomes(kind: str, n_inputs: int) -> list:

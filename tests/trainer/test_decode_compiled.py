@@ -2,8 +2,8 @@
 import numpy as np
 import pytest
 
-from mahn_evo.substrate import THRESHOLD, decode_outputs, decode_outputs_numpy, query_layout
-from mahn_evo.team_evaluator import CONTROLLER_FIELDS
+from mahn_evo.hyperneat.substrate import THRESHOLD, decode_outputs, decode_outputs_numpy, query_layout
+from mahn_evo.hyperneat.team_evaluator import CONTROLLER_FIELDS
 
 
 @pytest.mark.parametrize("mode", ["situational", "standard"])

@@ -1,9 +1,9 @@
 """The evaluator runs each distinct team once and gives duplicates the same scores."""
 import numpy as np
 
-from mahn_envs.controllers import TeamControllers
 from mahn_envs.core import TaskParams
-from mahn_evo.team_evaluator import CONTROLLER_FIELDS, TeamEvaluator, distinct_teams
+from mahn_envs.policies.team_controllers import TeamControllers
+from mahn_evo.hyperneat.team_evaluator import CONTROLLER_FIELDS, EvaluationSettings, TeamEvaluator, distinct_teams
 from tests.envs.helpers import random_team
 
 
@@ -24,10 +24,10 @@ def test_distinct_teams_groups_bit_identical_controllers_in_order_of_appearance(
 def test_score_runs_each_distinct_team_once_and_matches_scoring_them_apart():
     params = TaskParams(max_cycles=300, signal_tick=150, sensor_noise=5.0, start_jitter_xy=2.0)
     teams = [random_team(s) for s in (4, 5, 4, 6, 5, 4)]
-    ev = TeamEvaluator("situational", params=params, episodes=2, seed=3)
+    ev = TeamEvaluator(EvaluationSettings(task=params, episodes=2, seed=3))
     fit, solved = ev.score(_batch(teams))
     assert list(ev._sims) == [3]  # the episodes ran for the 3 distinct teams only
-    alone = TeamEvaluator("situational", params=params, episodes=2, seed=3)
+    alone = TeamEvaluator(EvaluationSettings(task=params, episodes=2, seed=3))
     for i, t in enumerate(teams):
         f, s = alone.score(_batch([t]))
         assert fit[i] == f[0] and solved[i] == s[0]

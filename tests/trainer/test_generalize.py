@@ -4,9 +4,9 @@ import json
 import pytest
 
 from mahn_evo.cli import main
-from mahn_evo.config import EvolutionConfig
-from mahn_evo.generalize import generalize
-from mahn_evo.trainer import train
+from mahn_evo.evaluation.generalize import generalize
+from mahn_evo.training.config import EvolutionConfig
+from mahn_evo.training.trainer import train
 
 
 def test_ranks_archived_solutions(tmp_path):

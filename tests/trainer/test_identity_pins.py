@@ -6,9 +6,9 @@ for a small population: the paper's seed genome, the minimal one, and noisy mult
 """
 import pytest
 
-from mahn_evo.config import EvolutionConfig
-from mahn_evo.task_setup import task_params
-from mahn_evo.trainer import Trainer
+from mahn_evo.evaluation.task_setup import task_params
+from mahn_evo.training.config import EvolutionConfig
+from mahn_evo.training.trainer import Trainer
 
 PINNED = {
     ("iros2011", "none", 1): [(2.075697025660086, 1.652371756987371), (2.075697025660086, 1.6938935052283572),

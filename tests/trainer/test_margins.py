@@ -3,11 +3,11 @@ import json
 
 import numpy as np
 
-from mahn_envs.controllers import TeamControllers
-from mahn_evo.champion import Champion
+from mahn_envs.policies.team_controllers import TeamControllers
 from mahn_evo.cli import main
-from mahn_evo.margins import decision_margins
+from mahn_evo.evaluation.margins import decision_margins
 from mahn_evo.neat.initial import iros2011_seed_genome
+from mahn_evo.training.champion import Champion
 
 
 def _team(b_o) -> TeamControllers:

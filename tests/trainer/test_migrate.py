@@ -1,5 +1,5 @@
-"""Files of older format versions read through mahn_evo.migrate: old runs resume to the log their own code wrote,
-and a file newer than the code is refused naming the file and both versions.
+"""Files of older format versions read through mahn_evo.storage.migrate: old runs resume to the log their own code
+wrote, and a file newer than the code is refused naming the file and both versions.
 
 The fixtures are run folders written by old commits (tests/trainer/fixtures/README.md says how)."""
 import csv
@@ -9,14 +9,14 @@ from pathlib import Path
 
 import pytest
 
-from mahn_evo.champion import Champion
 from mahn_evo.cli import main
-from mahn_evo.config import EvolutionConfig
 from mahn_evo.experiment.plan import ExperimentPlan
-from mahn_evo.files import CHECKSUM_KEY, atomic_write_json, read_checked_json, read_versioned_json, versioned
-from mahn_evo.migrate import FORMAT_VERSION, STEPS, upgrade
 from mahn_evo.neat import NeatSettings, Population
-from mahn_evo.trainer import Trainer
+from mahn_evo.storage.files import CHECKSUM_KEY, atomic_write_json, read_checked_json, read_versioned_json, versioned
+from mahn_evo.storage.migrate import FORMAT_VERSION, STEPS, upgrade
+from mahn_evo.training.champion import Champion
+from mahn_evo.training.config import EvolutionConfig
+from mahn_evo.training.trainer import Trainer
 
 FIXTURES = Path(__file__).parent / "fixtures"
 
@@ -111,8 +111,9 @@ def test_kinds_without_changes_pass_through_every_step():
     assert sorted(STEPS) == list(range(1, FORMAT_VERSION))
 
 
-#: The defaults of format version 2.  An absent key of a saved file means its version's default (mahn_evo.migrate),
-#: so changing one of these needs FORMAT_VERSION + 1 and a step that writes the old value into older files.
+#: The defaults of format version 2.  An absent key of a saved file means its version's default
+#: (mahn_evo.storage.migrate), so changing one of these needs FORMAT_VERSION + 1 and a step that writes the old value
+#: into older files.
 V2_NEAT_DEFAULTS = {
     "population_size": 500, "asexual_proportion": 0.5, "interspecies_mating_probability": 0.01,
     "disjoint_excess_recombine_probability": 0.1, "crossover_mutation_probability": 0.0, "elitism_proportion": 0.2,

@@ -5,10 +5,10 @@ import numpy as np
 import pytest
 
 from mahn_envs import load_map
-from mahn_envs.policy import ControllerPolicy
-from mahn_envs.scripted import WaypointTeam
+from mahn_envs.policies.controller_policy import ControllerPolicy
+from mahn_envs.policies.scripted import WaypointTeam
 from mahn_evo.cli import main
-from mahn_evo.protocols import SequentialSettings, sequential, sequential_episode, sequential_summary
+from mahn_evo.evaluation.protocols import SequentialSettings, sequential, sequential_episode, sequential_summary
 
 AGENTS = ["robot_0", "robot_1", "robot_2"]
 
@@ -58,8 +58,8 @@ def test_situational_controller_restarts_patrol_brain_when_signal_cleared():
 
 
 def test_cli_sequential(tmp_path, capsys):
-    from mahn_evo.config import EvolutionConfig
-    from mahn_evo.trainer import train
+    from mahn_evo.training.config import EvolutionConfig
+    from mahn_evo.training.trainer import train
 
     train(EvolutionConfig(generations=1, seed=0).with_overrides(pop=10), tmp_path)
     assert main(["eval", str(tmp_path / "champion.json"), "--protocol", "sequential", "--json"]) == 0
@@ -74,8 +74,8 @@ def test_sequential_frames_and_cli_video_and_plot(tmp_path):
     assert len(frames) == len(res.trajectory) // 20 and frames[0].ndim == 3 and frames[0].shape[2] == 3
     assert not np.array_equal(frames[0], frames[-1])  # the robots moved
 
-    from mahn_evo.config import EvolutionConfig
-    from mahn_evo.trainer import train
+    from mahn_evo.training.config import EvolutionConfig
+    from mahn_evo.training.trainer import train
 
     train(EvolutionConfig(generations=1, seed=0).with_overrides(pop=10), tmp_path)
     gif, png = tmp_path / "seq.gif", tmp_path / "seq.png"

@@ -9,8 +9,8 @@ import time
 
 import pytest
 
-from mahn_evo.config import EvolutionConfig
-from mahn_evo.trainer import Trainer
+from mahn_evo.training.config import EvolutionConfig
+from mahn_evo.training.trainer import Trainer
 
 ARGS = ["--generations", "8", "--pop", "30", "--seed", "5", "--quiet"]
 

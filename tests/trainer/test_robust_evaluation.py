@@ -6,12 +6,16 @@ import csv
 import numpy as np
 import pytest
 
-from mahn_evo.config import EvolutionConfig
+from mahn_evo.hyperneat.team_evaluator import EvaluationSettings, TeamEvaluator
 from mahn_evo.neat import NeatSettings, Population
-from mahn_evo.team_evaluator import TeamEvaluator
-from mahn_evo.trainer import Trainer, train
+from mahn_evo.training.config import EvolutionConfig
+from mahn_evo.training.trainer import Trainer, train
 
 NOISY = EvolutionConfig().with_noise("generalization").task
+
+
+def _evaluator(**settings) -> TeamEvaluator:
+    return TeamEvaluator(EvaluationSettings(**settings))
 
 
 def _genomes(n=12, seed=4):
@@ -19,10 +23,9 @@ def _genomes(n=12, seed=4):
 
 
 def test_per_generation_draws_are_common_to_the_teams_and_new_each_generation():
-    ev = TeamEvaluator("situational", params=NOISY, episodes=3, noise_draws="per_generation",
-                       evaluate_modules=True)
+    ev = _evaluator(task=NOISY, episodes=3, noise_draws="per_generation", evaluate_modules=True)
     assert ev.episode_keys(0) == [0, 1, 2] and ev.episode_keys(5) == [15, 16, 17]
-    fixed = TeamEvaluator("situational", params=NOISY, episodes=3, evaluate_modules=True)
+    fixed = _evaluator(task=NOISY, episodes=3, evaluate_modules=True)
     assert fixed.episode_keys(5) == [0, 1, 2]
     g = _genomes()
     twins = [g[0]] * 4 + g[4:]  # identical teams in one generation meet identical episodes
@@ -35,14 +38,14 @@ def test_per_generation_draws_are_common_to_the_teams_and_new_each_generation():
 
 def test_aggregates_order_min_quantile_mean():
     g = _genomes()
-    kw = dict(params=NOISY, episodes=4, noise_draws="per_generation", evaluate_modules=True)
-    mean = TeamEvaluator("situational", **kw).evaluate(g, 2).fitness
-    q = TeamEvaluator("situational", aggregate="quantile", quantile=0.25, **kw).evaluate(g, 2).fitness
-    low = TeamEvaluator("situational", aggregate="min", **kw).evaluate(g, 2).fitness
+    kw = dict(task=NOISY, episodes=4, noise_draws="per_generation", evaluate_modules=True)
+    mean = _evaluator(**kw).evaluate(g, 2).fitness
+    q = _evaluator(aggregate="quantile", quantile=0.25, **kw).evaluate(g, 2).fitness
+    low = _evaluator(aggregate="min", **kw).evaluate(g, 2).fitness
     assert np.all(low <= q + 1e-12) and np.all(q <= mean + 1e-9)
     assert np.any(low < mean)
     with pytest.raises(ValueError, match="aggregate"):
-        TeamEvaluator("situational", aggregate="median")
+        EvaluationSettings(aggregate="median")
 
 
 def _robust(**kw):
@@ -72,12 +75,12 @@ def test_noise_preset_is_saved_in_the_run_config(tmp_path):
 
 def test_a_noise_free_episode_joins_the_noisy_ones():
     g = _genomes()
-    kw = dict(params=NOISY, episodes=2, noise_draws="per_generation", evaluate_modules=True)
-    both = TeamEvaluator("situational", noise_free_episode=True, **kw)
-    noisy = TeamEvaluator("situational", **kw).evaluate(g, 3)
-    clean = TeamEvaluator("situational", evaluate_modules=True).evaluate(g, 3)
+    kw = dict(task=NOISY, episodes=2, noise_draws="per_generation", evaluate_modules=True)
+    both = _evaluator(noise_free_episode=True, **kw)
+    noisy = _evaluator(**kw).evaluate(g, 3)
+    clean = _evaluator(evaluate_modules=True).evaluate(g, 3)
     np.testing.assert_allclose(both.evaluate(g, 3).fitness, (2 * noisy.fitness + clean.fitness) / 3, rtol=1e-12)
-    low = TeamEvaluator("situational", noise_free_episode=True, aggregate="min", **kw).evaluate(g, 3).fitness
+    low = _evaluator(noise_free_episode=True, aggregate="min", **kw).evaluate(g, 3).fitness
     assert np.all(low <= clean.fitness) and np.all(low <= noisy.fitness + 1e-9)
     cfg = EvolutionConfig(noise_free_episode=True)
     assert EvolutionConfig.from_mapping(cfg.to_dict()).noise_free_episode is True

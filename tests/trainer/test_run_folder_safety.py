@@ -8,10 +8,10 @@ import sys
 
 import pytest
 
-from mahn_evo.champion import Champion
 from mahn_evo.cli import main
-from mahn_evo.config import EvolutionConfig
-from mahn_evo.trainer import Trainer, train
+from mahn_evo.training.champion import Champion
+from mahn_evo.training.config import EvolutionConfig
+from mahn_evo.training.trainer import Trainer, train
 
 
 def small(**kw):
@@ -201,7 +201,7 @@ def test_stray_temporary_files_are_removed_on_the_next_start(tmp_path):
 
 
 # ------------------------------------------------------------------ one process per folder
-_HOLD = ("import sys, time; from mahn_evo.folder_lock import folder_lock\n"
+_HOLD = ("import sys, time; from mahn_evo.storage.folder_lock import folder_lock\n"
          "with folder_lock(sys.argv[1], 'run folder'):\n    print('held', flush=True); time.sleep(60)")
 
 

@@ -5,8 +5,8 @@ import pytest
 from mahn_envs import BatchSim
 from mahn_envs.core.api import policy_coordinates
 from mahn_evo.cppn import compile_cppn
+from mahn_evo.hyperneat.substrate import INPUT_X, decode_outputs, decode_population, query_layout
 from mahn_evo.neat.initial import iros2011_seed_genome
-from mahn_evo.substrate import INPUT_X, decode_outputs, decode_population, query_layout
 
 
 def test_substrate_coordinates():

@@ -5,11 +5,11 @@ import json
 import pytest
 
 from mahn_envs import BatchSim, patrol_return_v0
-from mahn_envs.policy import ControllerPolicy
-from mahn_evo.champion import Champion
+from mahn_envs.policies.controller_policy import ControllerPolicy
 from mahn_evo.cli import main
-from mahn_evo.config import EvolutionConfig
-from mahn_evo.trainer import Trainer, train
+from mahn_evo.training.champion import Champion
+from mahn_evo.training.config import EvolutionConfig
+from mahn_evo.training.trainer import Trainer, train
 
 
 def small(**kw):
@@ -154,7 +154,7 @@ def test_after_solved_keeps_running_and_may_change_on_resume(tmp_path):
 def test_atomic_writes_leave_no_temp_files_and_normal_permissions(tmp_path):
     import os
 
-    from mahn_evo.files import atomic_write_json, read_versioned_json, versioned
+    from mahn_evo.storage.files import atomic_write_json, read_versioned_json, versioned
 
     path = tmp_path / "x.json"
     atomic_write_json(path, versioned("thing", {"a": 1}))

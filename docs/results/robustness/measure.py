@@ -13,14 +13,14 @@ from pathlib import Path
 
 from mahn_envs.hardware import Link, RetryPolicy
 from mahn_envs.hardware.clock import VirtualClock
-from mahn_envs.policy import ControllerPolicy
-from mahn_evo.champion import Champion
+from mahn_envs.policies.controller_policy import ControllerPolicy
 from mahn_evo.deploy import deploy
-from mahn_evo.eval_champion import evaluate_champion
-from mahn_evo.files import atomic_write_json
-from mahn_evo.margins import decision_margins
-from mahn_evo.protocols import sequential
-from mahn_evo.task_setup import task_params
+from mahn_evo.evaluation.eval_champion import evaluate_champion
+from mahn_evo.evaluation.margins import decision_margins
+from mahn_evo.evaluation.protocols import sequential
+from mahn_evo.evaluation.task_setup import task_params
+from mahn_evo.storage.files import atomic_write_json
+from mahn_evo.training.champion import Champion
 
 NOISY_EPISODES = 20
 SEQUENTIAL_EPISODES = 10

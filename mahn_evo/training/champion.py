@@ -1,6 +1,6 @@
 """Champion files: the best CPPN of a run and the team controllers it decodes to, as versioned JSON.
 
-The controllers are stored decoded (plain arrays, see mahn_envs.controllers) so a champion can drive the
+The controllers are stored decoded (plain arrays, see mahn_envs.policies.team_controllers) so a champion can drive the
 simulator, the PettingZoo env or real robots without the trainer; the CPPN is kept so it can be re-decoded,
 inspected or evolved further.
 """
@@ -12,12 +12,12 @@ from typing import Any
 
 import numpy as np
 
-from mahn_envs.controllers import _FIELDS as CONTROLLER_FIELDS
-from mahn_envs.controllers import TeamControllers
+from mahn_envs.policies.team_controllers import _FIELDS as CONTROLLER_FIELDS
+from mahn_envs.policies.team_controllers import TeamControllers
 
-from .files import atomic_write_json, read_versioned_json, versioned
-from .neat.genome import Genome
-from .substrate import MODES
+from ..hyperneat.substrate import MODES
+from ..neat.genome import Genome
+from ..storage.files import atomic_write_json, read_versioned_json, versioned
 
 KIND = "champion"
 
@@ -87,8 +87,8 @@ DECODINGS = (("recursive", True), ("recursive", False), ("relax", True))
 def _check_controllers_match_cppn(champ: Champion, where: str) -> None:
     """The stored controllers must be what the CPPN decodes to under one of the run settings that decide decoding
     (DECODINGS), or the file mixes two teams or was edited."""
-    from .cppn import compile_genome
-    from .substrate import decode_population
+    from ..cppn import compile_genome
+    from ..hyperneat.substrate import decode_population
 
     ctrl = champ.controllers
     if ctrl.batched or ctrl.mode != champ.mode:

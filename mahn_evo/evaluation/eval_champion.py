@@ -11,9 +11,9 @@ from typing import Any
 import numpy as np
 
 from mahn_envs.core import BatchSim, TaskParams
-from mahn_envs.policy import ControllerPolicy
+from mahn_envs.policies.controller_policy import ControllerPolicy
 
-from .champion import Champion
+from ..training.champion import Champion
 from .task_setup import task_env
 
 
@@ -46,7 +46,7 @@ def evaluate_champion(champion: Champion | str | Path, map: str = "plus", engine
             fits.append(info["team_fitness"])
             solved.append(info["solved"])
             if frames is not None and video is not None:
-                from .plots import save_gif
+                from ..plots import save_gif
 
                 save_gif(frames, video, fps=max(1, int(30 / video_every)), scale=video_scale)
             env.close()

@@ -1,6 +1,6 @@
 """The one interface every team policy implements, so every protocol runs any team.
 
-Evolved teams (:class:`mahn_envs.policy.ControllerPolicy`), RL policies (``baselines.policy.SB3TeamPolicy``,
+Evolved teams (:class:`mahn_envs.policies.ControllerPolicy`), RL policies (``baselines.policy.SB3TeamPolicy``,
 ``baselines.lean_nets.LeanTeamPolicy``) all offer both forms a protocol may need:
 
 - ``reset(n_episodes=1)``: start ``n_episodes`` fresh episodes (network or recurrent state cleared);
@@ -10,7 +10,7 @@ Evolved teams (:class:`mahn_envs.policy.ControllerPolicy`), RL policies (``basel
   the sequential protocol, which runs in the PettingZoo env; agents missing from the dict are skipped).
 
 Batch-first policies get ``act`` from :class:`DictActFromBatch`, so the dict form is written once.  (The scripted
-team of :mod:`mahn_envs.scripted` drives from poses, which no learned policy sees; it is the one exception and
+team of :mod:`mahn_envs.policies.scripted` drives from poses, which no learned policy sees; it is the one exception and
 says so with ``uses_infos = True``.)
 """
 from __future__ import annotations

@@ -15,10 +15,10 @@ from functools import lru_cache
 import numpy as np
 from numba import njit
 
-from mahn_envs.controllers import N_INPUTS, TeamControllers
 from mahn_envs.core.api import policy_coordinates
+from mahn_envs.policies.team_controllers import N_INPUTS, TeamControllers
 
-from .batch_cppn import evaluate_plans
+from ..cppn.batch import evaluate_plans
 
 MODES = ("situational", "standard")
 THRESHOLD = 0.2

@@ -13,7 +13,7 @@ Run folder:
   fitness.png      the fitness curve
 
 A fresh run refuses a folder that holds another run (--overwrite removes it first); `mahn-evo train` and each
-experiment worker hold the folder's lock (folder_lock.py) while they write.
+experiment worker hold the folder's lock (storage/folder_lock.py) while they write.
 """
 from __future__ import annotations
 
@@ -25,9 +25,10 @@ from typing import Any
 
 import numpy as np
 
-from .champion import Champion
-from .config import EvolutionConfig
-from .files import (
+from ..hyperneat.team_evaluator import TeamEvaluator
+from ..neat.genome import Genome
+from ..neat.population import Population
+from ..storage.files import (
     atomic_write_checked_json,
     atomic_write_csv,
     atomic_write_json,
@@ -36,10 +37,9 @@ from .files import (
     remove_stray_temp_files,
     versioned,
 )
-from .folder_lock import check_folder_usable
-from .neat.genome import Genome
-from .neat.population import Population
-from .team_evaluator import TeamEvaluator
+from ..storage.folder_lock import check_folder_usable
+from .champion import Champion
+from .config import EvolutionConfig
 
 #: settings that only decide when a run ends; they may change when a run is resumed (e.g. more generations)
 STOPPING_RULES = ("generations", "stop_when_solved", "after_solved")
@@ -78,11 +78,7 @@ class Trainer:
             raise ValueError("choose one of --resume (continue the run in the folder) and --overwrite (replace it)")
         self.config = config
         self.out = check_folder_usable(out_dir, "run folder")
-        self.evaluator = TeamEvaluator(config.mode, config.map, config.task, config.episodes, seed=config.seed,
-                                       evaluate_modules=config.evaluate_modules,
-                                       cppn_activation=config.cppn_activation, noise_draws=config.noise_draws,
-                                       aggregate=config.aggregate, quantile=config.quantile,
-                                       noise_free_episode=config.noise_free_episode)
+        self.evaluator = TeamEvaluator(config.evaluation)
         self.rows: list[list] = []
         self.best_fitness = -np.inf
         self.first_solved: int | None = None
@@ -243,7 +239,7 @@ class Trainer:
                    "solved": self.first_solved is not None, "first_solved_generation": self.first_solved,
                    "evaluations": self.rows[-1][1] if self.rows else 0, "wall_seconds": round(self.wall, 3)}
         atomic_write_json(self.out / "summary.json", summary)
-        from .plots import fitness_curve
+        from ..plots import fitness_curve
 
         fitness_curve(self.out / "log.csv", self.out / "fitness.png",
                       title=f"{self.config.mode}, seed {self.config.seed}, pop {pop}")

@@ -11,7 +11,7 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
-from .maps import World
+from ..maps import World
 
 LEFT, FORWARD, RIGHT = 0, 1, 2
 

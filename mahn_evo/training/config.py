@@ -13,13 +13,10 @@ from pathlib import Path
 from typing import Any
 
 from mahn_envs.core import TaskParams
-from mahn_envs.core.rng import check_seed
 
-from .cppn import CPPN_ACTIVATIONS
-from .neat.settings import NeatSettings
-from .substrate import MODES
-from .task_setup import NOISE_PRESETS
-from .team_evaluator import AGGREGATES, NOISE_DRAWS
+from ..evaluation.task_setup import NOISE_PRESETS
+from ..hyperneat.team_evaluator import EvaluationSettings
+from ..neat.settings import NeatSettings
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -31,7 +28,12 @@ INITS = ("iros2011", "minimal")
 
 @dataclass(frozen=True)
 class EvolutionConfig:
-    """Everything that determines a run.  Same config (seed included) -> bit-identical run."""
+    """Everything that determines a run.  Same config (seed included) -> bit-identical run.
+
+    The fields that say how genomes are scored (mode, map, task, episodes, seed, evaluate_modules, cppn_activation,
+    noise_draws, aggregate, quantile, noise_free_episode) are those of the evaluator's `EvaluationSettings`, which
+    checks them; `evaluation` builds that record.  They stay flat here, as config.json has always held them.
+    """
 
     mode: str = "situational"
     generations: int = 1000
@@ -62,33 +64,22 @@ class EvolutionConfig:
     task: TaskParams = field(default_factory=TaskParams)
 
     def __post_init__(self) -> None:
-        if self.mode not in MODES:
-            raise ValueError(f"mode must be one of {MODES}, got {self.mode!r}")
+        _ = self.evaluation  # building the evaluation settings checks their fields (EvaluationSettings)
         if self.init not in INITS:
             raise ValueError(f"init must be one of {INITS}, got {self.init!r}")
-        for name, allowed in (("cppn_activation", CPPN_ACTIVATIONS), ("noise_draws", NOISE_DRAWS),
-                              ("aggregate", AGGREGATES)):
-            if getattr(self, name) not in allowed:
-                raise ValueError(f"{name} must be one of {allowed}, got {getattr(self, name)!r}")
-        if isinstance(self.quantile, bool) or not isinstance(self.quantile, (int, float)) \
-                or not 0.0 <= self.quantile <= 1.0:
-            raise ValueError(f"quantile must be a number in [0, 1], got {self.quantile!r}")
-        if not isinstance(self.noise_free_episode, bool):
-            raise TypeError(f"noise_free_episode must be true or false, got {self.noise_free_episode!r}")
-        if self.cppn_activation == "relax" and not self.evaluate_modules:
-            raise ValueError("cppn_activation 'relax' always evaluates the Multiply modules (as the original's "
-                             "MultipleSteps does): it cannot be combined with evaluate_modules = false")
         if self.neat.cppn.evaluate_modules:  # a NEAT-level leftover: the trainer reads the top-level flag only
             raise ValueError("set evaluate_modules at the top level of the configuration, not under `neat`")
-        for name in ("generations", "episodes", "checkpoint_every"):
+        for name in ("generations", "checkpoint_every"):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, int) or v < 1:
                 raise ValueError(f"{name} must be a positive integer, got {v!r}")
         if isinstance(self.after_solved, bool) or not isinstance(self.after_solved, int) or self.after_solved < 0:
             raise ValueError(f"after_solved must be a non-negative integer, got {self.after_solved!r}")
-        if not isinstance(self.seed, int):  # not numpy ints either: the config is saved as JSON
-            raise TypeError(f"seed must be an integer in [0, 2**64), got {self.seed!r}")
-        check_seed(self.seed, "seed")
+
+    @property
+    def evaluation(self) -> EvaluationSettings:
+        """How this run scores its genomes: the fields of this configuration that `EvaluationSettings` names."""
+        return EvaluationSettings(**{f.name: getattr(self, f.name) for f in fields(EvaluationSettings)})
 
     @property
     def n_cppn_inputs(self) -> int:
@@ -115,12 +106,12 @@ class EvolutionConfig:
 
     @classmethod
     def from_saved(cls, data: Mapping[str, Any]) -> EvolutionConfig:
-        """A configuration a run saved (config.json, a checkpoint's), as read by mahn_evo.files, which upgraded it
-        to the current format (mahn_evo.migrate) so it holds the values the run was made with."""
+        """A configuration a run saved (config.json, a checkpoint's), as read by mahn_evo.storage.files, which
+        upgraded it to the current format (mahn_evo.storage.migrate) so it holds the values the run was made with."""
         return cls.from_mapping({k: v for k, v in data.items() if k not in ("kind", "version")})
 
     def with_noise(self, preset: str) -> EvolutionConfig:
-        """This configuration with the task noise of a named preset (see mahn_evo.task_setup.NOISE_PRESETS)."""
+        """This configuration with the task noise of a named preset (mahn_evo.evaluation.task_setup.NOISE_PRESETS)."""
         if preset not in NOISE_PRESETS:
             raise ValueError(f"unknown noise preset {preset!r}; known: {sorted(NOISE_PRESETS)}")
         task = {**self.task.without_noise().to_dict(), **NOISE_PRESETS[preset]}

@@ -1,10 +1,10 @@
 """The one path from older file formats to the current one.
 
-Every file mahn writes for users to keep carries ``kind`` and ``version`` (see mahn_evo.files).  When a format
-changes, :data:`FORMAT_VERSION` goes up by one and one step function is added to :data:`STEPS`: it turns a
-document of version v into one of version v + 1 for every kind.  Every reader calls :func:`upgrade` (through
-mahn_evo.files.read_versioned_json / read_checked_json, and Population.from_dict for a bare population state), so an
-old run folder, champion or experiment reads as if written today, step by step, and the code after the reader
+Every file mahn writes for users to keep carries ``kind`` and ``version`` (see mahn_evo.storage.files).  When a format
+changes, :data:`FORMAT_VERSION` goes up by one and one step function is added to :data:`STEPS`: it turns a document of
+version v into one of version v + 1 for every kind.  Every reader calls :func:`upgrade` (through
+mahn_evo.storage.files.read_versioned_json / read_checked_json, and Population.from_dict for a bare population state),
+so an old run folder, champion or experiment reads as if written today, step by step, and the code after the reader
 knows only the current format.  A file newer than the code is refused with both versions named.
 
 The rule that keeps old runs reproducing: a key absent from a saved document means the default of its format
@@ -21,7 +21,7 @@ Version 1 -> 2 (mahn 0.2):
   only (other rules are refused).  Without ``last_improvement`` the population's best never improved (0).
 - A champion without ``map`` was evolved on ``plus``; without ``seed`` its seed is unknown (null).
 - A checkpoint of version 1 may lack its content checksum (written before checksums existed); from version 2 on it
-  must carry one (checked by mahn_evo.files.read_checked_json before the upgrade).
+  must carry one (checked by mahn_evo.storage.files.read_checked_json before the upgrade).
 - Version 2 writes every NEAT setting; version 1 left out five settings at their default (their default is what an
   absent key means, so nothing needs filling in).
 """

@@ -12,11 +12,11 @@ from typing import Any
 
 import numpy as np
 
-from mahn_envs.controllers import TeamControllers
 from mahn_envs.core import BatchSim, TaskParams
+from mahn_envs.policies.team_controllers import TeamControllers
 
-from .champion import Champion
-from .files import atomic_write_csv, atomic_write_json, versioned
+from ..storage.files import atomic_write_csv, atomic_write_json, versioned
+from ..training.champion import Champion
 from .task_setup import task_params
 
 

@@ -16,9 +16,9 @@ from typing import Any
 import numpy as np
 
 from mahn_envs.core.params import TaskParams
-from mahn_envs.policy import ControllerPolicy
+from mahn_envs.policies.controller_policy import ControllerPolicy
 
-from .champion import Champion
+from ..training.champion import Champion
 from .task_setup import task_env
 
 #: margins below this count as near-ties: the threshold of the original code's (unused) "confused" counter.

@@ -18,9 +18,8 @@ from collections.abc import Sequence
 import numpy as np
 from numba import njit
 
-from .cppn import CppnPlan
-from .cppn.activations import BY_CODE
-from .cppn.plan import MODE_PRODUCT, MODE_SUM
+from .activations import BY_CODE
+from .plan import MODE_PRODUCT, MODE_SUM, CppnPlan
 
 #: the plan layout this module understands; any other plan falls back to its own evaluate()
 _PLAN_FIELDS = ("n_inputs", "node_ids", "op_act", "op_mode", "term_ptr", "term_src", "term_weight", "output_slots")

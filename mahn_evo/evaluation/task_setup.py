@@ -2,7 +2,7 @@
 PettingZoo env of a TaskParams.
 
 Shared by `mahn-evo eval` (eval_champion.py), the generalisation test, the margins, the experiment's transfer
-tests and robust training (config.py's `with_noise`), so a preset means the same noise everywhere.
+tests and robust training (training/config.py's `with_noise`), so a preset means the same noise everywhere.
 """
 from __future__ import annotations
 

@@ -9,8 +9,8 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
-from .controllers import TeamControllers
-from .core.controller import network_action, transposed
+from ..core.controller import network_action, transposed
+from .team_controllers import TeamControllers
 
 
 class ControllerPolicy:

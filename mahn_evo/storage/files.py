@@ -94,8 +94,8 @@ def read_json_object(path: str | Path, what: str) -> dict[str, Any]:
 
 
 def read_versioned_json(path: str | Path, kind: str) -> dict[str, Any]:
-    """Load a file we wrote, upgraded to the current format (mahn_evo.migrate); a wrong kind, a version newer than
-    this code or corrupt JSON is a ValueError naming it."""
+    """Load a file we wrote, upgraded to the current format (mahn_evo.storage.migrate); a wrong kind, a version
+    newer than this code or corrupt JSON is a ValueError naming it."""
     return upgrade(_check_kind(read_json_object(path, kind), path, kind), kind, _where(path, kind))
 
 
@@ -139,7 +139,7 @@ def atomic_write_checked_json(path: str | Path, kind: str, payload: Mapping[str,
 
 
 def read_checked_json(path: str | Path, kind: str) -> dict[str, Any]:
-    """Load a file written by atomic_write_checked_json, upgraded to the current format (mahn_evo.migrate); a
+    """Load a file written by atomic_write_checked_json, upgraded to the current format (mahn_evo.storage.migrate); a
     content that does not match its checksum is a ValueError naming the file.  The checksum is checked on the file
     as written, before the upgrade; only version-1 files may lack it (written before checksums existed)."""
     data = _check_kind(read_json_object(path, kind), path, kind)

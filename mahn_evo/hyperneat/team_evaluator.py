@@ -1,0 +1,187 @@
+"""Team evaluation through the batch core: a whole generation of CPPNs -> controllers -> fitness, in one call.
+
+Decoding is vectorised over the population (substrate.py) and the episodes run in the compiled parallel loop
+with the controllers inside, so a generation of 500 teams costs one kernel call.  What the evaluator does is one
+frozen record, `EvaluationSettings`; a training run builds it from its configuration (`EvolutionConfig.evaluation`).
+"""
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from mahn_envs.core import BatchSim, TaskParams
+from mahn_envs.core.rng import check_seed
+from mahn_envs.maps import load_map
+from mahn_envs.policies.team_controllers import TeamControllers
+
+from ..cppn import CPPN_ACTIVATIONS, compile_genome
+from .substrate import MODES, decode_population
+
+#: How a team's fitness is taken from its episodes: "fixed" draws (episode keys 0..K-1 every generation) or fresh
+#: draws per generation (keys g*K .. g*K+K-1, the same for every team of generation g: common random numbers).
+NOISE_DRAWS = ("fixed", "per_generation")
+#: How the K episode fitnesses of a team become its fitness.
+AGGREGATES = ("mean", "min", "quantile")
+
+
+@dataclass(frozen=True)
+class EvaluationSettings:
+    """How genomes are scored as teams: the decoding, the map and task, the episodes and their aggregation.
+
+    The fields, their names and their defaults are those of a training run's configuration (`EvolutionConfig`,
+    which keeps them flat in config.json and builds this record as `EvolutionConfig.evaluation`); the rules that
+    check them are written here, once.  Same settings (seed included) -> the same scores.
+    """
+
+    #: policy geometry: "situational" (a brain per situation) or "standard" (the signal as an input)
+    mode: str = "situational"
+    #: a built-in map name or a map JSON file
+    map: str = "plus"
+    #: the task: episode timing, noise, rule switches
+    task: TaskParams = field(default_factory=TaskParams)
+    #: episodes per team per generation (keyed, see `noise_draws`)
+    episodes: int = 1
+    seed: int = 0
+    #: run the seed genome's Multiply modules in the CPPN's recursive pass (the original code never did)
+    evaluate_modules: bool = True
+    #: "recursive" (the original's depth-first pass) or "relax" (its MultipleSteps relaxation)
+    cppn_activation: str = "recursive"
+    noise_draws: str = "fixed"
+    aggregate: str = "mean"
+    #: the quantile of the episode fitnesses with aggregate "quantile"
+    quantile: float = 0.25
+    #: also score every team on one noise-free episode (aggregated with the noisy ones): a team must work with and
+    #: without noise, instead of relying on noise to get out of a deadlock
+    noise_free_episode: bool = False
+
+    def __post_init__(self) -> None:
+        if self.mode not in MODES:
+            raise ValueError(f"mode must be one of {MODES}, got {self.mode!r}")
+        for name, allowed in (("cppn_activation", CPPN_ACTIVATIONS), ("noise_draws", NOISE_DRAWS),
+                              ("aggregate", AGGREGATES)):
+            if getattr(self, name) not in allowed:
+                raise ValueError(f"{name} must be one of {allowed}, got {getattr(self, name)!r}")
+        if isinstance(self.quantile, bool) or not isinstance(self.quantile, (int, float)) \
+                or not 0.0 <= self.quantile <= 1.0:
+            raise ValueError(f"quantile must be a number in [0, 1], got {self.quantile!r}")
+        if not isinstance(self.noise_free_episode, bool):
+            raise TypeError(f"noise_free_episode must be true or false, got {self.noise_free_episode!r}")
+        if self.cppn_activation == "relax" and not self.evaluate_modules:
+            raise ValueError("cppn_activation 'relax' always evaluates the Multiply modules (as the original's "
+                             "MultipleSteps does): it cannot be combined with evaluate_modules = false")
+        if isinstance(self.episodes, bool) or not isinstance(self.episodes, int) or self.episodes < 1:
+            raise ValueError(f"episodes must be a positive integer, got {self.episodes!r}")
+        if not isinstance(self.seed, int):  # not numpy ints either: a run's configuration is saved as JSON
+            raise TypeError(f"seed must be an integer in [0, 2**64), got {self.seed!r}")
+        check_seed(self.seed, "seed")
+
+
+@dataclass
+class Evaluation:
+    fitness: np.ndarray  # (N,) team fitness: the episodes' fitness aggregated (mean, min or a quantile)
+    solved: np.ndarray  # (N,) fraction of episodes solved
+    controllers: TeamControllers  # batch (N, R, K, ...)
+
+
+CONTROLLER_FIELDS = ("w_ih", "w_hh", "w_ho", "b_h", "b_o")
+
+
+def distinct_teams(ctrl: TeamControllers) -> tuple[np.ndarray, np.ndarray]:
+    """(first, index): `first` lists one team of each distinct set of controller arrays (in order of first
+    appearance) and team i equals team first[index[i]].  Teams are compared bit for bit (float32 patterns)."""
+    n = ctrl.w_ih.shape[0]
+    rows = np.concatenate([np.ascontiguousarray(getattr(ctrl, f), dtype=np.float32).reshape(n, -1)
+                           for f in CONTROLLER_FIELDS], axis=1)
+    seen: dict[bytes, int] = {}
+    first: list[int] = []
+    index = np.empty(n, dtype=np.int64)
+    for i in range(n):
+        key = rows[i].tobytes()
+        j = seen.get(key)
+        if j is None:
+            j = seen[key] = len(first)
+            first.append(i)
+        index[i] = j
+    return np.array(first, dtype=np.int64), index
+
+
+class TeamEvaluator:
+    """Scores genomes as teams on one map.  Deterministic: episodes are keyed, not drawn from shared state.
+
+    Robust evaluation: with noise in `task`, `episodes` = K > 1 and ``noise_draws="per_generation"`` every team
+    of a generation meets the same K noisy episodes (common random numbers: teams are compared on equal luck) and
+    each generation meets new ones (a team cannot be selected for one lucky draw); ``aggregate`` "min" or
+    "quantile" scores a team by its bad episodes rather than its mean.
+    """
+
+    def __init__(self, settings: EvaluationSettings) -> None:
+        if not isinstance(settings, EvaluationSettings):
+            raise TypeError("TeamEvaluator takes one EvaluationSettings (a run's is EvolutionConfig.evaluation), "
+                            f"got {type(settings).__name__} {settings!r}")
+        self.settings = settings
+        self.world = load_map(settings.map)
+        self._sims: dict[int, BatchSim] = {}
+        self._clean_sims: dict[int, BatchSim] = {}
+
+    def decode(self, genomes: Sequence) -> TeamControllers:
+        s = self.settings
+        plans = [compile_genome(g, s.cppn_activation, s.evaluate_modules) for g in genomes]
+        return decode_population(plans, s.mode, self.world.n_robots)
+
+    def _sim(self, n: int) -> BatchSim:
+        if n not in self._sims:
+            self._sims = {n: BatchSim(self.world, n, self.settings.task)}
+        return self._sims[n]
+
+    def _clean_sim(self, n: int) -> BatchSim:
+        if n not in self._clean_sims:
+            self._clean_sims = {n: BatchSim(self.world, n, self.settings.task.without_noise())}
+        return self._clean_sims[n]
+
+    def episode_keys(self, generation: int = 0) -> list[int]:
+        """The keys of the episodes every team of `generation` is scored on."""
+        k = self.settings.episodes
+        first = generation * k if self.settings.noise_draws == "per_generation" else 0
+        return list(range(first, first + k))
+
+    def score(self, controllers: TeamControllers, generation: int = 0) -> tuple[np.ndarray, np.ndarray]:
+        """Aggregated fitness and solved fraction of each team over its keyed episodes.
+
+        Teams whose controllers are identical (elites carried over, duplicate offspring, genomes that decode to
+        the same weights) are run once: every team meets the same keyed episodes, so their results are equal.
+        """
+        s = self.settings
+        ctrl = controllers.as_batch()
+        first, index = distinct_teams(ctrl)
+        if len(first) < ctrl.w_ih.shape[0]:
+            ctrl = TeamControllers(*(np.ascontiguousarray(getattr(ctrl, f)[first]) for f in CONTROLLER_FIELDS))
+        n = ctrl.w_ih.shape[0]
+        sim = self._sim(n)
+        keys = self.episode_keys(generation)
+        fits = np.zeros((len(keys) + s.noise_free_episode, n))
+        solved = np.zeros(n)
+        for e, key in enumerate(keys):
+            res = sim.run_controllers(ctrl, seed=s.seed, episode_keys=np.full(n, key))
+            fits[e] = res.fitness
+            solved += res.solved
+        if s.noise_free_episode:
+            res = self._clean_sim(n).run_controllers(ctrl, seed=s.seed, episode_keys=np.zeros(n, dtype=np.int64))
+            fits[-1] = res.fitness
+            solved += res.solved
+        if s.aggregate == "min":
+            fit = fits.min(axis=0)
+        elif s.aggregate == "quantile":
+            fit = np.quantile(fits, s.quantile, axis=0)
+        else:  # the mean, summed in episode order (as before: bit-identical for old runs)
+            fit = np.zeros(n)
+            for e in range(fits.shape[0]):
+                fit += fits[e]
+            fit = fit / fits.shape[0]
+        return fit[index], solved[index] / fits.shape[0]
+
+    def evaluate(self, genomes: Sequence, generation: int = 0) -> Evaluation:
+        controllers = self.decode(genomes)
+        fitness, solved = self.score(controllers, generation)
+        return Evaluation(fitness, solved, controllers)
