@@ -297,8 +297,8 @@ class BatchSim:
         T_ = self.params.max_cycles
         traj = np.zeros((B, T_ + 1, R, 4)) if record else np.zeros((1, 1, 1, 4))
         nets = (*transposed(ctrl), hid, out, brain)
-        kernels.run_controllers(self._state, self._geometry, self._task(), self._work, nets, (fitness, solved),
-                                traj, record)
+        kernels.run_controllers(self._state, self._geometry, self._task(), self._work, nets,
+                                kernels.network_scratch(nets[0], n_hidden), (fitness, solved), traj, record)
         self.prev_fit[:] = fitness
         self.solved[:] = solved
         return RunResult(fitness=fitness, solved=solved, collisions=self.racc[:, :, T.R_COLL].astype(np.int64),

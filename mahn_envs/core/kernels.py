@@ -29,7 +29,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit, prange
+from numba import njit, prange, types
+from numba.core import cgutils
+from numba.extending import intrinsic
 
 from .controller import LANES, OUT_LANE, is_size_9, pack_networks, remembered_action, remembered_action_16
 from .rng import CH_ACTION, uniform
@@ -49,14 +51,11 @@ from .task import (
     team_fitness,
 )
 
-
 # ------------------------------------------------------------------ one tick of episode b (inlined everywhere)
-@njit(cache=True, error_model="numpy", inline="always")
-def episode_work(work, b):
-    """Episode b's rows of the memos and scratch: (trig, at, others, cand), each one episode's view."""
-    trig, at, others, cand = work
-    return trig[b], at[b], others[b], cand[b]
-
+# These functions are inlined into the parallel loops' bodies, where numba 0.68 sees which arrays a write
+# reaches only through indexing of the kernel's argument tuples (`state[0]`, `work[1][b]`): a tuple unpacked
+# (`a, b = t`) or built there hides the aliasing, and the parallel loop drops the writes as dead code.  So the
+# tuples are indexed, never unpacked, and the loops pass them on as they came.
 
 @njit(cache=True, error_model="numpy", inline="always")
 def heading_trig(r, h, trig, at):
@@ -72,35 +71,36 @@ def heading_trig(r, h, trig, at):
 def decide_tick(b, actions, state, task):
     """Start episode b's tick: advance its clock and turn every robot's action (actions[b, r]) into heading and
     velocity (the reflex included).  Returns the tick."""
-    pose, raw, _, _, _, _, est = state
-    params, seed, keys = task
+    pose = state[0]
+    est = state[6]
     tick = est[b, E_TICK] + 1
     est[b, E_TICK] = tick
     for r in range(pose.shape[1]):
-        decide_robot(b, r, actions[b, r], tick, pose, raw, params, seed, keys[b])
+        decide_robot(b, r, actions[b, r], tick, pose, state[1], task[0], task[1], task[2][b])
     return tick
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def move_tick(b, state, arena, task, ew):
+def move_tick(b, state, arena, task, work):
     """Drive every robot of episode b straight for one tick under the wall rule."""
-    pose, _, _, racc, _, _, _ = state
-    walls, boxes, _, _, _ = arena
-    params = task[0]
-    trig, at, _, _ = ew
+    pose = state[0]
+    trig = work[0][b]
+    at = work[1][b]
     for r in range(pose.shape[1]):
         heading_trig(r, pose[b, r, H], trig, at)
-        drive_robot(b, r, trig[r, 0], trig[r, 1], pose, racc, params, walls, boxes)
+        drive_robot(b, r, trig[r, 0], trig[r, 1], pose, state[3], task[0], arena[0], arena[1])
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def sense_tick(b, tick, state, arena, task, ew):
+def sense_tick(b, tick, state, arena, task, work):
     """Episode b's inputs for tick `tick`: rays (cast again only for robots that moved, unless robots see each
     other, whose rays depend on the others too), then the encoding with its noise."""
-    pose, raw, obs, _, rflag, _, _ = state
-    walls, boxes, dirs, _, _ = arena
-    params, seed, keys = task
-    trig, at, others, cand = ew
+    pose = state[0]
+    params = task[0]
+    trig = work[0][b]
+    at = work[1][b]
+    others = work[2][b]
+    cand = work[3][b]
     see = params[P_SEE] > 0.5
     for r in range(pose.shape[1]):
         x = pose[b, r, X]
@@ -108,54 +108,57 @@ def sense_tick(b, tick, state, arena, task, ew):
         h = pose[b, r, H]
         if see or not (x == at[r, 1] and y == at[r, 2] and h == at[r, 3] and x != 0.0 and y != 0.0 and h != 0.0):
             heading_trig(r, h, trig, at)
-            cast_robot_rays(b, r, trig[r, 0], trig[r, 1], pose, raw, walls, boxes, dirs, params, others, cand)
+            cast_robot_rays(b, r, trig[r, 0], trig[r, 1], pose, state[1], arena[0], arena[1], arena[2], params,
+                            others, cand)
             at[r, 1] = x
             at[r, 2] = y
             at[r, 3] = h
-    encode_episode(b, tick, raw, obs, rflag, params, seed, keys[b])
+    encode_episode(b, tick, state[1], state[2], state[4], params, task[1], task[2][b])
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def finish_tick(b, tick, state, arena, task, ew, sense):
+def finish_tick(b, tick, state, arena, task, work, sense):
     """End episode b's tick after motion: the fitness sample (and automatic signal), then, with `sense`, the
     inputs of the next tick."""
-    pose, _, _, racc, rflag, goto, est = state
-    _, _, _, pois, home = arena
-    score_tick(b, tick, pose, racc, rflag, goto, est, pois, home, task[0])
+    score_tick(b, tick, state[0], state[3], state[4], state[5], state[6], arena[3], arena[4], task[0])
     if sense:
-        sense_tick(b, tick + 1, state, arena, task, ew)
+        sense_tick(b, tick + 1, state, arena, task, work)
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def play_tick(b, actions, state, arena, task, ew, sense):
+def play_tick(b, actions, state, arena, task, work, sense):
     """One tick of episode b with the actions actions[b, r] decided: decide, move, score, sense.
 
     Decisions first, then motion: a robot's decision reads only its own inputs, rays and pose, and its noise
     draws are pure functions of (seed, episode, tick, robot, channel), so the order is free.  Returns the tick.
     """
     tick = decide_tick(b, actions, state, task)
-    move_tick(b, state, arena, task, ew)
-    finish_tick(b, tick, state, arena, task, ew, sense)
+    move_tick(b, state, arena, task, work)
+    finish_tick(b, tick, state, arena, task, work, sense)
     return tick
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def episode_fitness(b, state, arena):
+    """Episode b's team fitness if it ended now, and `solved`."""
+    return team_fitness(b, state[0], state[3], state[4], state[5], state[6], arena[4])
 
 
 @njit(cache=True, error_model="numpy", inline="always")
 def reward_tick(b, state, arena, scores):
     """The team fitness if episode b ended now, its change since the last tick, and `solved`."""
-    pose, _, _, racc, rflag, goto, est = state
-    prev_fit, rewards, solved = scores
-    fit, ok = team_fitness(b, pose, racc, rflag, goto, est, arena[4])
-    rewards[b] = fit - prev_fit[b]
+    prev_fit = scores[0]
+    fit, ok = episode_fitness(b, state, arena)
+    scores[1][b] = fit - prev_fit[b]
     prev_fit[b] = fit
-    solved[b] = ok
+    scores[2][b] = ok
 
 
 @njit(cache=True, error_model="numpy", inline="always")
 def random_actions(b, tick, actions, p_left, p_forward, task):
     """The random team's action source: each robot of episode b draws left, forward or right into actions[b]."""
-    _, seed, keys = task
     for r in range(actions.shape[1]):
-        u = uniform(seed, keys[b], tick, r, CH_ACTION)
+        u = uniform(task[1], task[2][b], tick, r, CH_ACTION)
         actions[b, r] = 0 if u < p_left else (1 if u < p_left + p_forward else 2)
 
 
@@ -166,15 +169,16 @@ def network_actions(b, actions, state, nets, brains):
     of one vector (`remembered_action_16`)."""
     obs = state[2]
     rflag = state[4]
-    wt_ih, wt_hh, wt_ho, b_h, b_o, hid, out, brain = nets
-    wpack, bpack, lanes, tmp_h, prev, memo_obs, memo = brains
+    wt_ih = nets[0]
     for r in range(actions.shape[1]):
         if is_size_9(wt_ih):
-            actions[b, r] = remembered_action_16(b, r, obs, rflag[b, r, F_SIGNAL], wt_ih.shape[2], wpack, bpack,
-                                                 lanes, brain, prev, memo_obs, memo)
+            actions[b, r] = remembered_action_16(b, r, obs, rflag[b, r, F_SIGNAL], wt_ih.shape[2], brains[0],
+                                                 brains[1], brains[2], nets[7], brains[4][b], brains[5][b],
+                                                 brains[6][b])
         else:
-            actions[b, r] = remembered_action(b, r, obs, rflag[b, r, F_SIGNAL], wt_ih, wt_hh, wt_ho, b_h, b_o, hid,
-                                              out, brain, tmp_h, prev, memo_obs, memo)
+            actions[b, r] = remembered_action(b, r, obs, rflag[b, r, F_SIGNAL], wt_ih, nets[1], nets[2], nets[3],
+                                              nets[4], nets[5], nets[6], nets[7], brains[3][b], brains[4][b],
+                                              brains[5][b], brains[6][b])
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -187,76 +191,67 @@ def record_tick(b, tick, actions, pose, traj):
         traj[b, tick, r, 3] = actions[b, r]
 
 
-# ------------------------------------------------------------------ whole episodes (one call per episode)
-# The parallel loops below hand each episode to one of these plain compiled functions instead of inlining
-# the tick into the parallel loop's body: numba 0.68's parallel loops lose writes into arrays that reach an
-# inlined function inside a tuple (its dead-code removal does not see them alias the arguments).  One call
-# per episode costs nothing; inside it the tick is inlined as everywhere else.
-
-@njit(cache=True, error_model="numpy")
-def controller_episode(b, actions, state, arena, task, ew, nets, brains, traj, record):
-    """Episode b from its reset state to the end with the networks deciding; its team fitness and `solved`.
-
-    `brains` (wpack, bpack, lanes, tmp_h, prev, memo_obs, memo) holds the packed networks and their state
-    (run_controllers) and this episode's network scratch and memos.
-    """
-    pose = state[0]
-    hid, out = nets[5], nets[6]
+@njit(cache=True, error_model="numpy", inline="always")
+def load_lanes(b, nets, brains, back):
+    """Copy episode b's network state (hid, out) into the packed lanes, or `back` from them."""
+    hid = nets[5]
+    out = nets[6]
     lanes = brains[2]
-    n_ticks = int(task[0][P_MAXT])
-    size_9 = is_size_9(nets[0])
-    if size_9:
-        for r in range(pose.shape[1]):
-            for i in range(9):
-                lanes[b, r, i] = hid[b, r, i]
-            for q in range(3):
-                lanes[b, r, OUT_LANE + q] = out[b, r, q]
-    if record:
-        record_tick(b, 0, actions, pose, traj)  # actions[b] = -1 here: no action before the first tick
-    for t in range(1, n_ticks + 1):
-        network_actions(b, actions, state, nets, brains)
-        tick = play_tick(b, actions, state, arena, task, ew, t < n_ticks)
-        if record:
-            record_tick(b, tick, actions, pose, traj)
-    if size_9:
-        for r in range(pose.shape[1]):
-            for i in range(9):
+    for r in range(hid.shape[1]):
+        for i in range(9):
+            if back:
                 hid[b, r, i] = lanes[b, r, i]
-            for q in range(3):
+            else:
+                lanes[b, r, i] = hid[b, r, i]
+        for q in range(3):
+            if back:
                 out[b, r, q] = lanes[b, r, OUT_LANE + q]
-    return team_fitness(b, pose, state[3], state[4], state[5], state[6], arena[4])
-
-
-@njit(cache=True, error_model="numpy")
-def random_episode(b, actions, state, arena, task, ew, p_left, p_forward):
-    """Episode b from its reset state to the end with a random team; its team fitness and `solved`."""
-    n_ticks = int(task[0][P_MAXT])
-    for t in range(1, n_ticks + 1):
-        random_actions(b, t, actions, p_left, p_forward, task)
-        play_tick(b, actions, state, arena, task, ew, t < n_ticks)
-    pose = state[0]
-    return team_fitness(b, pose, state[3], state[4], state[5], state[6], arena[4])
+            else:
+                lanes[b, r, OUT_LANE + q] = out[b, r, q]
 
 
 # ------------------------------------------------------------------ loops over the episodes
+@intrinsic
+def borrowed(typingctx, group):
+    """The tuple `group` with its arrays borrowed: the same data, shape and strides without an owner (a null
+    meminfo), valid while the caller holds the originals.  The serial loops below take their groups this way, so
+    the reference counting in the inlined tick (every view, every array taken out of a tuple) compiles to
+    nothing instead of atomic updates: the parallel loops' bodies get their arrays the same way from numba."""
+    if not isinstance(group, types.BaseTuple):
+        return None
+
+    def codegen(context, builder, signature, args):
+        out = args[0]
+        for i, ty in enumerate(signature.args[0]):
+            if isinstance(ty, types.Array):
+                ary = context.make_array(ty)(context, builder, builder.extract_value(args[0], i))
+                ary.meminfo = cgutils.get_null_value(ary.meminfo.type)
+                ary.parent = cgutils.get_null_value(ary.parent.type)
+                out = builder.insert_value(out, ary._getvalue(), i)
+        return out
+
+    return group(group), codegen
+
+
 @njit(cache=True, error_model="numpy")
 def forget_rays(work):
     """Clear the memos (after raw was written or the robots were placed anew): the next sensing casts every ray."""
-    trig, at, _, _ = work
-    at[:] = np.nan
-    trig[:] = 0.0
+    work[1][:] = np.nan
+    work[0][:] = 0.0
 
 
 @njit(cache=True, error_model="numpy")
 def sense_all(tick, state, arena, task, work):
     """Every episode's inputs for tick `tick` (after a reset, or robots placed by hand)."""
+    state, arena, task, work = borrowed(state), borrowed(arena), borrowed(task), borrowed(work)
     for b in range(state[0].shape[0]):
-        sense_tick(b, tick, state, arena, task, episode_work(work, b))
+        sense_tick(b, tick, state, arena, task, work)
 
 
 @njit(cache=True, error_model="numpy")
 def decide_all(actions, state, task):
     """Start a tick in every episode: advance the clock and turn actions into heading and velocity."""
+    state, task = borrowed(state), borrowed(task)
     for b in range(state[0].shape[0]):
         decide_tick(b, actions, state, task)
 
@@ -264,86 +259,69 @@ def decide_all(actions, state, task):
 @njit(cache=True, error_model="numpy")
 def finish_all(state, arena, task, work, scores):
     """End a tick in every episode after motion: fitness sample, sensing for the next tick, and the reward."""
+    state, arena, task = borrowed(state), borrowed(arena), borrowed(task)
+    work, scores = borrowed(work), borrowed(scores)
     est = state[6]
     for b in range(est.shape[0]):
-        finish_tick(b, est[b, E_TICK], state, arena, task, episode_work(work, b), True)
+        finish_tick(b, est[b, E_TICK], state, arena, task, work, True)
         reward_tick(b, state, arena, scores)
 
 
 @njit(cache=True, error_model="numpy")
 def step_all(actions, state, arena, task, work, scores):
     """One tick of every episode with given actions (B, R) (the env and RL vector-env path)."""
+    state, arena, task = borrowed(state), borrowed(arena), borrowed(task)
+    work, scores = borrowed(work), borrowed(scores)
     for b in range(actions.shape[0]):
-        play_tick(b, actions, state, arena, task, episode_work(work, b), True)
+        play_tick(b, actions, state, arena, task, work, True)
         reward_tick(b, state, arena, scores)
 
 
-# In the parallel loops, arrays are taken out of their tuples one by one (never `a, b = t`: numba 0.68's
-# parallel loops then lose the writes into them) and scratch is allocated before the loop, not in its body:
-# arrays from outside the parallel loop reach its body without a reference count (numba passes them as plain
-# pointers), so the reference counting of the functions they go to is a null test instead of an atomic update.
+def network_scratch(wt_ih: np.ndarray, n_hidden: int) -> tuple:
+    """The `brains` group of `run_controllers` for transposed weights wt_ih (B, R, K, n_in, n_hidden): packed
+    networks (`pack_networks`, for the substrate's size) and per episode the network scratch and memos
+    (`remembered_action`).  (wpack, bpack, lanes, tmp, prev, memo_obs, memo)."""
+    B, R, K, n_in = wt_ih.shape[:4]
+    size_9 = n_in == 7 and n_hidden == 9
+    n = B if size_9 else 1
+    return (np.zeros((n, R, K, LANES, LANES), dtype=np.float32), np.zeros((n, R, K, LANES), dtype=np.float32),
+            np.zeros((n, R, LANES), dtype=np.float32), np.zeros((B, n_hidden + 3), dtype=np.float32),
+            np.zeros((B, n_hidden), dtype=np.float32), np.zeros((B, R, n_in), dtype=np.float32),
+            np.zeros((B, R, 3), dtype=np.int64))
+
 
 @njit(cache=True, error_model="numpy", parallel=True)
-def run_controllers(state, arena, task, work, nets, result, traj, record):
+def run_controllers(state, arena, task, work, nets, brains, result, traj, record):
     """Whole episodes with the controllers in the loop, episodes spread over the cores.
 
-    State arrays must hold the reset state (poses placed, first sensing done).  With `record`, traj[b, t]
-    receives (x, y, heading, action) of every robot after tick t (t = 0 is the start).
+    State arrays must hold the reset state (poses placed, first sensing done); `brains` comes from
+    `network_scratch`.  With `record`, traj[b, t] receives (x, y, heading, action) of every robot after tick t
+    (t = 0 is the start).
     """
+    # Arrays from outside the parallel loop reach its body without a reference count (numba passes them as
+    # plain pointers), so the reference counting in the inlined functions is a null test, not an atomic update.
     pose = state[0]
-    raw = state[1]
-    obs = state[2]
-    racc = state[3]
-    rflag = state[4]
-    goto = state[5]
-    est = state[6]
-    walls = arena[0]
-    boxes = arena[1]
-    dirs = arena[2]
-    pois = arena[3]
-    home = arena[4]
-    params = task[0]
-    seed = task[1]
-    keys = task[2]
-    trig = work[0]
-    at = work[1]
-    others = work[2]
-    cand = work[3]
-    wt_ih = nets[0]
-    wt_hh = nets[1]
-    wt_ho = nets[2]
-    b_h = nets[3]
-    b_o = nets[4]
-    hid = nets[5]
-    out = nets[6]
-    brain = nets[7]
-    fitness = result[0]
-    solved = result[1]
     n_ep = pose.shape[0]
-    n_robots = pose.shape[1]
-    n_hidden = wt_hh.shape[3]
-    actions = np.full((n_ep, n_robots), -1, dtype=np.int64)
-    tmp_all = np.empty((n_ep, n_hidden + 3), dtype=np.float32)
-    prev_all = np.empty((n_ep, n_hidden), dtype=np.float32)
-    memo_obs_all = np.empty((n_ep, n_robots, wt_ih.shape[3]), dtype=np.float32)
-    memo_all = np.zeros((n_ep, n_robots, 3), dtype=np.int64)
-    # Networks of the substrate's size run packed (`pack_networks`), hidden nodes and outputs in `lanes`.
-    if is_size_9(wt_ih):
-        wpack = np.empty(wt_ih.shape[:3] + (LANES, LANES), dtype=np.float32)
-        bpack = np.empty(wt_ih.shape[:3] + (LANES,), dtype=np.float32)
-        pack_networks(wt_ih, wt_hh, wt_ho, b_h, b_o, wpack, bpack)
-    else:
-        wpack = np.zeros((1, 1, 1, LANES, LANES), dtype=np.float32)
-        bpack = np.zeros((1, 1, 1, LANES), dtype=np.float32)
-    lanes = np.zeros((n_ep, n_robots, LANES), dtype=np.float32)
+    n_ticks = int(task[0][P_MAXT])
+    size_9 = is_size_9(nets[0])
+    if size_9:
+        pack_networks(nets[0], nets[1], nets[2], nets[3], nets[4], brains[0], brains[1])
+    actions = np.full((n_ep, pose.shape[1]), -1, dtype=np.int64)
     for b in prange(n_ep):
-        fit, ok = controller_episode(
-            b, actions, (pose, raw, obs, racc, rflag, goto, est), (walls, boxes, dirs, pois, home),
-            (params, seed, keys), (trig[b], at[b], others[b], cand[b]),
-            (wt_ih, wt_hh, wt_ho, b_h, b_o, hid, out, brain),
-            (wpack, bpack, lanes, tmp_all[b], prev_all[b], memo_obs_all[b], memo_all[b]), traj, record)
-        fitness[b] = fit
-        solved[b] = ok
+        if size_9:
+            load_lanes(b, nets, brains, False)
+        if record:
+            record_tick(b, 0, actions, pose, traj)  # action -1: none before the first tick
+        for t in range(1, n_ticks + 1):
+            network_actions(b, actions, state, nets, brains)
+            tick = play_tick(b, actions, state, arena, task, work, t < n_ticks)
+            if record:
+                record_tick(b, tick, actions, pose, traj)
+        if size_9:
+            load_lanes(b, nets, brains, True)
+        fit, ok = episode_fitness(b, state, arena)
+        result[0][b] = fit
+        result[1][b] = ok
 
 
 @njit(cache=True, error_model="numpy", parallel=True)
@@ -353,30 +331,12 @@ def run_random(state, arena, task, work, p_left, p_forward, result):
     The random-policy reference for baselines, and the core's raw-throughput benchmark.
     """
     pose = state[0]
-    raw = state[1]
-    obs = state[2]
-    racc = state[3]
-    rflag = state[4]
-    goto = state[5]
-    est = state[6]
-    walls = arena[0]
-    boxes = arena[1]
-    dirs = arena[2]
-    pois = arena[3]
-    home = arena[4]
-    params = task[0]
-    seed = task[1]
-    keys = task[2]
-    trig = work[0]
-    at = work[1]
-    others = work[2]
-    cand = work[3]
-    fitness = result[0]
-    solved = result[1]
+    n_ticks = int(task[0][P_MAXT])
     actions = np.zeros((pose.shape[0], pose.shape[1]), dtype=np.int64)
     for b in prange(pose.shape[0]):
-        fit, ok = random_episode(b, actions, (pose, raw, obs, racc, rflag, goto, est),
-                                 (walls, boxes, dirs, pois, home), (params, seed, keys),
-                                 (trig[b], at[b], others[b], cand[b]), p_left, p_forward)
-        fitness[b] = fit
-        solved[b] = ok
+        for t in range(1, n_ticks + 1):
+            random_actions(b, t, actions, p_left, p_forward, task)
+            play_tick(b, actions, state, arena, task, work, t < n_ticks)
+        fit, ok = episode_fitness(b, state, arena)
+        result[0][b] = fit
+        result[1][b] = ok
