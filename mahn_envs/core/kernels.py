@@ -16,6 +16,8 @@ arrays one by one, a namedtuple more slowly, which the env's per-step calls woul
   task   (params, seed, keys)                           TaskParams.vector(), the random streams' seed, episode keys
   work   (trig, at, others, cand)                       memos and scratch, one row per episode (below)
   nets   (wt_ih, wt_hh, wt_ho, b_h, b_o, hid, out, brain)  `transposed` controllers and their state
+  brains (wpack, bpack, lanes, tmp, prev, memo_obs, memo)   packed networks, network scratch and memos
+                                                        (`network_scratch`)
   scores (prev_fit, rewards, solved)                    the team fitness so far and its change in the last tick
   result (fitness, solved)                              whole episodes' outcome
 
@@ -58,13 +60,13 @@ from .task import (
 # tuples are indexed, never unpacked, and the loops pass them on as they came.
 
 @njit(cache=True, error_model="numpy", inline="always")
-def heading_trig(r, h, trig, at):
-    """cos and sin of robot r's heading h into trig[r], kept while the heading stays the same.  Zero is never
+def heading_trig(b, r, h, trig, at):
+    """cos and sin of robot r's heading h into trig[b, r], kept while the heading stays the same.  Zero is never
     taken as unchanged (sin(-0.0) is -0.0, and -0.0 == 0.0), nor NaN (never equal)."""
-    if not (h == at[r, 0] and h != 0.0):
-        trig[r, 0] = math.cos(h)
-        trig[r, 1] = math.sin(h)
-        at[r, 0] = h
+    if not (h == at[b, r, 0] and h != 0.0):
+        trig[b, r, 0] = math.cos(h)
+        trig[b, r, 1] = math.sin(h)
+        at[b, r, 0] = h
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -84,11 +86,10 @@ def decide_tick(b, actions, state, task):
 def move_tick(b, state, arena, task, work):
     """Drive every robot of episode b straight for one tick under the wall rule."""
     pose = state[0]
-    trig = work[0][b]
-    at = work[1][b]
+    trig = work[0]
     for r in range(pose.shape[1]):
-        heading_trig(r, pose[b, r, H], trig, at)
-        drive_robot(b, r, trig[r, 0], trig[r, 1], pose, state[3], task[0], arena[0], arena[1])
+        heading_trig(b, r, pose[b, r, H], trig, work[1])
+        drive_robot(b, r, trig[b, r, 0], trig[b, r, 1], pose, state[3], task[0], arena[0], arena[1])
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -97,22 +98,21 @@ def sense_tick(b, tick, state, arena, task, work):
     other, whose rays depend on the others too), then the encoding with its noise."""
     pose = state[0]
     params = task[0]
-    trig = work[0][b]
-    at = work[1][b]
-    others = work[2][b]
-    cand = work[3][b]
+    trig = work[0]
+    at = work[1]
     see = params[P_SEE] > 0.5
     for r in range(pose.shape[1]):
         x = pose[b, r, X]
         y = pose[b, r, Y]
         h = pose[b, r, H]
-        if see or not (x == at[r, 1] and y == at[r, 2] and h == at[r, 3] and x != 0.0 and y != 0.0 and h != 0.0):
-            heading_trig(r, h, trig, at)
-            cast_robot_rays(b, r, trig[r, 0], trig[r, 1], pose, state[1], arena[0], arena[1], arena[2], params,
-                            others, cand)
-            at[r, 1] = x
-            at[r, 2] = y
-            at[r, 3] = h
+        if see or not (x == at[b, r, 1] and y == at[b, r, 2] and h == at[b, r, 3] and x != 0.0 and y != 0.0
+                       and h != 0.0):
+            heading_trig(b, r, h, trig, at)
+            cast_robot_rays(b, r, trig[b, r, 0], trig[b, r, 1], pose, state[1], arena[0], arena[1], arena[2],
+                            params, work[2][b], work[3][b])
+            at[b, r, 1] = x
+            at[b, r, 2] = y
+            at[b, r, 3] = h
     encode_episode(b, tick, state[1], state[2], state[4], params, task[1], task[2][b])
 
 
@@ -170,15 +170,17 @@ def network_actions(b, actions, state, nets, brains):
     obs = state[2]
     rflag = state[4]
     wt_ih = nets[0]
+    prev = brains[4][b]
+    memo_obs = brains[5][b]
+    memo = brains[6][b]
     for r in range(actions.shape[1]):
         if is_size_9(wt_ih):
             actions[b, r] = remembered_action_16(b, r, obs, rflag[b, r, F_SIGNAL], wt_ih.shape[2], brains[0],
-                                                 brains[1], brains[2], nets[7], brains[4][b], brains[5][b],
-                                                 brains[6][b])
+                                                 brains[1], brains[2], nets[7], prev, memo_obs, memo)
         else:
             actions[b, r] = remembered_action(b, r, obs, rflag[b, r, F_SIGNAL], wt_ih, nets[1], nets[2], nets[3],
-                                              nets[4], nets[5], nets[6], nets[7], brains[3][b], brains[4][b],
-                                              brains[5][b], brains[6][b])
+                                              nets[4], nets[5], nets[6], nets[7], brains[3][b], prev, memo_obs,
+                                              memo)
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -282,8 +284,7 @@ def network_scratch(wt_ih: np.ndarray, n_hidden: int) -> tuple:
     networks (`pack_networks`, for the substrate's size) and per episode the network scratch and memos
     (`remembered_action`).  (wpack, bpack, lanes, tmp, prev, memo_obs, memo)."""
     B, R, K, n_in = wt_ih.shape[:4]
-    size_9 = n_in == 7 and n_hidden == 9
-    n = B if size_9 else 1
+    n = B if (n_in == 7 and n_hidden == 9) else 1
     return (np.zeros((n, R, K, LANES, LANES), dtype=np.float32), np.zeros((n, R, K, LANES), dtype=np.float32),
             np.zeros((n, R, LANES), dtype=np.float32), np.zeros((B, n_hidden + 3), dtype=np.float32),
             np.zeros((B, n_hidden), dtype=np.float32), np.zeros((B, R, n_in), dtype=np.float32),
