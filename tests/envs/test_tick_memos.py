@@ -36,7 +36,7 @@ def test_step_with_memos_equals_step_without_them():
             resting += int(np.sum(np.all(cached.pose[:, :, :3] == before[:, :, :3], axis=-1)))
         cached.set_params(robots_see_each_other=False)
         fresh.set_params(robots_see_each_other=False)
-    assert resting > 500  # the memos had robots at rest to skip
+    assert resting > 100  # the memos had robots at rest to skip
 
 
 def test_reset_senses_every_robot_again():
