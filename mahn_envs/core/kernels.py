@@ -5,9 +5,9 @@ controller.py, change this file too (even a comment), or the cache keeps running
 
 One tick of an episode is written once, `play_tick` (decide every robot's action -> move -> score -> sense
 for the next tick), in three parts that the split tick of an external engine calls one by one
-(`decide_tick`, its own motion, `finish_tick`).  The loops differ only in where the actions come from:
-given (`step_all`, the env and the RL vector env), drawn at random (`run_random`) or from the networks
-(`run_controllers`, the trainer).
+(`decide_tick`, its own motion, `finish_tick`).  `step_all` (the env and the RL vector env) plays it with
+given actions, `run_random` with random ones.  The trainer's `run_controllers` writes the same tick out in its
+own parallel loop body (the same rule functions and memos): the shared tick cost it 7-13% (measured, see there).
 
 The arrays travel in plain tuples, built once by `BatchSim` (numba types a tuple of arrays as fast as the
 arrays one by one, a namedtuple more slowly, which the env's per-step calls would feel):
@@ -162,56 +162,6 @@ def random_actions(b, tick, actions, p_left, p_forward, task):
         actions[b, r] = 0 if u < p_left else (1 if u < p_left + p_forward else 2)
 
 
-@njit(cache=True, error_model="numpy", inline="always")
-def network_actions(b, actions, state, nets, brains):
-    """The controllers' action source: each robot of episode b asks its network (`remembered_action`, which
-    skips exact repeats) into actions[b].  Networks of the substrate's size run packed, every node in a lane
-    of one vector (`remembered_action_16`)."""
-    obs = state[2]
-    rflag = state[4]
-    wt_ih = nets[0]
-    prev = brains[4][b]
-    memo_obs = brains[5][b]
-    memo = brains[6][b]
-    for r in range(actions.shape[1]):
-        if is_size_9(wt_ih):
-            actions[b, r] = remembered_action_16(b, r, obs, rflag[b, r, F_SIGNAL], wt_ih.shape[2], brains[0],
-                                                 brains[1], brains[2], nets[7], prev, memo_obs, memo)
-        else:
-            actions[b, r] = remembered_action(b, r, obs, rflag[b, r, F_SIGNAL], wt_ih, nets[1], nets[2], nets[3],
-                                              nets[4], nets[5], nets[6], nets[7], brains[3][b], prev, memo_obs,
-                                              memo)
-
-
-@njit(cache=True, error_model="numpy", inline="always")
-def record_tick(b, tick, actions, pose, traj):
-    """traj[b, tick, r] = (x, y, heading, action) of every robot of episode b."""
-    for r in range(pose.shape[1]):
-        traj[b, tick, r, 0] = pose[b, r, X]
-        traj[b, tick, r, 1] = pose[b, r, Y]
-        traj[b, tick, r, 2] = pose[b, r, H]
-        traj[b, tick, r, 3] = actions[b, r]
-
-
-@njit(cache=True, error_model="numpy", inline="always")
-def load_lanes(b, nets, brains, back):
-    """Copy episode b's network state (hid, out) into the packed lanes, or `back` from them."""
-    hid = nets[5]
-    out = nets[6]
-    lanes = brains[2]
-    for r in range(hid.shape[1]):
-        for i in range(9):
-            if back:
-                hid[b, r, i] = lanes[b, r, i]
-            else:
-                lanes[b, r, i] = hid[b, r, i]
-        for q in range(3):
-            if back:
-                out[b, r, q] = lanes[b, r, OUT_LANE + q]
-            else:
-                lanes[b, r, OUT_LANE + q] = out[b, r, q]
-
-
 # ------------------------------------------------------------------ loops over the episodes
 @intrinsic
 def borrowed(typingctx, group):
@@ -298,31 +248,135 @@ def run_controllers(state, arena, task, work, nets, brains, result, traj, record
     State arrays must hold the reset state (poses placed, first sensing done); `brains` comes from
     `network_scratch`.  With `record`, traj[b, t] receives (x, y, heading, action) of every robot after tick t
     (t = 0 is the start).
+
+    The trainer's loop has its own body instead of `play_tick`: measured against 5e5b9eb (benchmarks/bench_ab.py
+    --batch 300 --teams champions, one thread, CPU time), the shared tick in this parallel loop cost 7-13% (per
+    tick views of the episode's scratch, an actions array written and read back, a second loop over the robots).
+    Here, as at 5e5b9eb, the episode's scratch rows are taken once per episode and each robot's action is decided
+    and applied in the same loop; the rules themselves are the same functions (core.task, core.controller), and
+    the memos are the same as `move_tick` and `sense_tick` keep (work).
     """
-    # Arrays from outside the parallel loop reach its body without a reference count (numba passes them as
-    # plain pointers), so the reference counting in the inlined functions is a null test, not an atomic update.
+    # The arrays are taken out of the groups by indexing here, before the parallel loop (never unpacked, see
+    # above): arrays from outside the parallel loop reach its body without a reference count (numba passes them
+    # as plain pointers), so the reference counting in the inlined functions is a null test, not an atomic update.
     pose = state[0]
+    raw = state[1]
+    obs = state[2]
+    racc = state[3]
+    rflag = state[4]
+    goto = state[5]
+    est = state[6]
+    walls = arena[0]
+    boxes = arena[1]
+    dirs = arena[2]
+    pois = arena[3]
+    home = arena[4]
+    params = task[0]
+    seed = task[1]
+    keys = task[2]
+    trig_all = work[0]
+    at_all = work[1]
+    others_all = work[2]
+    cand_all = work[3]
+    wt_ih = nets[0]
+    wt_hh = nets[1]
+    wt_ho = nets[2]
+    b_h = nets[3]
+    b_o = nets[4]
+    hid = nets[5]
+    out = nets[6]
+    brain = nets[7]
+    wpack = brains[0]
+    bpack = brains[1]
+    lanes = brains[2]
+    tmp_all = brains[3]
+    prev_all = brains[4]
+    memo_obs_all = brains[5]
+    memo_all = brains[6]
+    fitness = result[0]
+    solved = result[1]
     n_ep = pose.shape[0]
-    n_ticks = int(task[0][P_MAXT])
-    size_9 = is_size_9(nets[0])
+    n_robots = pose.shape[1]
+    n_ticks = int(params[P_MAXT])
+    see = params[P_SEE] > 0.5
+    size_9 = is_size_9(wt_ih)
+    n_brains = wt_ih.shape[2]
     if size_9:
-        pack_networks(nets[0], nets[1], nets[2], nets[3], nets[4], brains[0], brains[1])
-    actions = np.full((n_ep, pose.shape[1]), -1, dtype=np.int64)
+        pack_networks(wt_ih, wt_hh, wt_ho, b_h, b_o, wpack, bpack)
     for b in prange(n_ep):
+        others = others_all[b]
+        cand = cand_all[b]
+        tmp_h = tmp_all[b]
+        prev = prev_all[b]
+        memo_obs = memo_obs_all[b]
+        memo = memo_all[b]
+        trig = trig_all[b]
+        at = at_all[b]
+        key = keys[b]
         if size_9:
-            load_lanes(b, nets, brains, False)
+            for r in range(n_robots):
+                for i in range(9):
+                    lanes[b, r, i] = hid[b, r, i]
+                for q in range(3):
+                    lanes[b, r, OUT_LANE + q] = out[b, r, q]
         if record:
-            record_tick(b, 0, actions, pose, traj)  # action -1: none before the first tick
-        for t in range(1, n_ticks + 1):
-            network_actions(b, actions, state, nets, brains)
-            tick = play_tick(b, actions, state, arena, task, work, t < n_ticks)
+            for r in range(n_robots):
+                traj[b, 0, r, 0] = pose[b, r, X]
+                traj[b, 0, r, 1] = pose[b, r, Y]
+                traj[b, 0, r, 2] = pose[b, r, H]
+                traj[b, 0, r, 3] = -1.0  # no action before the first tick
+        for tick in range(1, n_ticks + 1):
+            est[b, E_TICK] = tick
+            for r in range(n_robots):
+                if size_9:
+                    action = remembered_action_16(b, r, obs, rflag[b, r, F_SIGNAL], n_brains, wpack, bpack, lanes,
+                                                  brain, prev, memo_obs, memo)
+                else:
+                    action = remembered_action(b, r, obs, rflag[b, r, F_SIGNAL], wt_ih, wt_hh, wt_ho, b_h, b_o,
+                                               hid, out, brain, tmp_h, prev, memo_obs, memo)
+                decide_robot(b, r, action, tick, pose, raw, params, seed, key)
+                if record:
+                    traj[b, tick, r, 3] = action
+            # `move_tick`, `score_tick`, `sense_tick` of the shared tick, on the episode's memo rows
+            for r in range(n_robots):
+                h = pose[b, r, H]
+                if not (h == at[r, 0] and h != 0.0):
+                    trig[r, 0] = math.cos(h)
+                    trig[r, 1] = math.sin(h)
+                    at[r, 0] = h
+                drive_robot(b, r, trig[r, 0], trig[r, 1], pose, racc, params, walls, boxes)
+            score_tick(b, tick, pose, racc, rflag, goto, est, pois, home, params)
             if record:
-                record_tick(b, tick, actions, pose, traj)
+                for r in range(n_robots):
+                    traj[b, tick, r, 0] = pose[b, r, X]
+                    traj[b, tick, r, 1] = pose[b, r, Y]
+                    traj[b, tick, r, 2] = pose[b, r, H]
+            if tick < n_ticks:
+                for r in range(n_robots):
+                    x = pose[b, r, X]
+                    y = pose[b, r, Y]
+                    h = pose[b, r, H]
+                    if see or not (x == at[r, 1] and y == at[r, 2] and h == at[r, 3] and x != 0.0 and y != 0.0
+                                   and h != 0.0):
+                        if not (h == at[r, 0] and h != 0.0):
+                            trig[r, 0] = math.cos(h)
+                            trig[r, 1] = math.sin(h)
+                            at[r, 0] = h
+                        cast_robot_rays(b, r, trig[r, 0], trig[r, 1], pose, raw, walls, boxes, dirs, params, others,
+                                        cand)
+                        at[r, 1] = x
+                        at[r, 2] = y
+                        at[r, 3] = h
+                encode_episode(b, tick + 1, raw, obs, rflag, params, seed, key)
         if size_9:
-            load_lanes(b, nets, brains, True)
-        fit, ok = episode_fitness(b, state, arena)
-        result[0][b] = fit
-        result[1][b] = ok
+            for r in range(n_robots):
+                for i in range(9):
+                    hid[b, r, i] = lanes[b, r, i]
+                for q in range(3):
+                    out[b, r, q] = lanes[b, r, OUT_LANE + q]
+        fit, ok = team_fitness(b, pose, racc, rflag, goto, est, home)
+        fitness[b] = fit
+        solved[b] = ok
 
 
 @njit(cache=True, error_model="numpy", parallel=True)
