@@ -105,8 +105,13 @@ class BatchSim:
         self.solved = np.zeros(B, dtype=np.bool_)
         self.keys = np.arange(B, dtype=np.uint64)
         self.seed = 0
-        self._others = np.zeros((R, 2))
-        self._cand = np.zeros(self.arena.walls.shape[0], dtype=np.int64)
+        # the kernels' argument groups (kernels.py describes them), built once around the arrays above
+        self._state = (self.pose, self.raw, self.obs, self.racc, self.rflag, self.goto, self.est)
+        self._geometry = (self.arena.walls, self.arena.boxes, self.arena.sensor_dirs, self.arena.pois,
+                          self.arena.home)
+        self._work = (np.zeros((B, R, 2)), np.full((B, R, 4), np.nan), np.zeros((B, R, 2)),
+                      np.zeros((B, self.arena.walls.shape[0]), dtype=np.int64))
+        self._scores = (self.prev_fit, self.rewards, self.solved)
         self._reset_done = False
 
     def set_params(self, **changes) -> TaskParams:
@@ -115,7 +120,12 @@ class BatchSim:
         check_start_jitter(self.world, params, self.model.radius)
         self.params = params
         self._pvec = self.params.vector(self.model)
+        kernels.forget_rays(self._work)
         return self.params
+
+    def _task(self) -> tuple:
+        """The kernels' `task` group: the parameter vector, the seed and the episode keys."""
+        return (self._pvec, self.seed, self.keys)
 
     # ------------------------------------------------------------------ episode control
     def start_poses(self, seed: int, episode_keys: np.ndarray) -> np.ndarray:
@@ -160,9 +170,8 @@ class BatchSim:
         self.prev_fit[:] = 0.0
         self.rewards[:] = 0.0
         self.solved[:] = False
-        a_ = self.arena
-        kernels.sense_all(1, self.pose, self.raw, self.obs, self.rflag, a_.walls, a_.boxes, a_.sensor_dirs,
-                          self._pvec, self.seed, self.keys, self._others, self._cand)
+        kernels.forget_rays(self._work)
+        kernels.sense_all(1, self._state, self._geometry, self._task(), self._work)
         self._reset_done = True
         return self.obs
 
@@ -206,10 +215,7 @@ class BatchSim:
         """
         self._check_can_step()
         a = self.check_actions(actions) if validate else actions
-        a_ = self.arena
-        kernels.step_all(a, self.pose, self.raw, self.obs, self.racc, self.rflag, self.goto, self.est,
-                         self.prev_fit, self.rewards, self.solved, a_.walls, a_.boxes, a_.sensor_dirs, a_.pois,
-                         a_.home, self._pvec, self.seed, self.keys, self._others, self._cand)
+        kernels.step_all(a, self._state, self._geometry, self._task(), self._work, self._scores)
         return self.obs, self.rewards, self.solved
 
     # ------------------------------------------------------------------ one tick in parts (external motion)
@@ -219,7 +225,7 @@ class BatchSim:
         (`move_robot_to`) and finish with `end_tick`; `step` is the three in one compiled call."""
         self._check_can_step()
         a = self.check_actions(actions) if validate else actions
-        kernels.decide_all(a, self.pose, self.raw, self.est, self._pvec, self.seed, self.keys)
+        kernels.decide_all(a, self._state, self._task())
 
     def move_robot_to(self, episode: int, robot: int, x: float, y: float) -> bool:
         """Put a robot where an external engine moved it this tick, under the core's wall rule: a position
@@ -231,10 +237,7 @@ class BatchSim:
     def end_tick(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """`step`'s last part: the fitness sample (and automatic signal), sensing for the next tick and the
         rewards.  Returns (obs (B,R,7), rewards (B,), solved (B,)) like `step`."""
-        a_ = self.arena
-        kernels.finish_all(self.pose, self.raw, self.obs, self.racc, self.rflag, self.goto, self.est,
-                           self.prev_fit, self.rewards, self.solved, a_.walls, a_.boxes, a_.sensor_dirs, a_.pois,
-                           a_.home, self._pvec, self.seed, self.keys, self._others, self._cand)
+        kernels.finish_all(self._state, self._geometry, self._task(), self._work, self._scores)
         return self.obs, self.rewards, self.solved
 
     def give_signal(self, episode: int, robot: int, on: bool = True) -> None:
@@ -244,9 +247,8 @@ class BatchSim:
 
     def resense(self) -> None:
         """Recompute sensing for the coming tick (after robots were moved by hand)."""
-        a_ = self.arena
-        kernels.sense_all(self.tick + 1, self.pose, self.raw, self.obs, self.rflag, a_.walls, a_.boxes,
-                          a_.sensor_dirs, self._pvec, self.seed, self.keys, self._others, self._cand)
+        kernels.forget_rays(self._work)
+        kernels.sense_all(self.tick + 1, self._state, self._geometry, self._task(), self._work)
 
     def team_fitness(self) -> tuple[np.ndarray, np.ndarray]:
         """Team fitness and `solved` of each episode as things stand (final once the episode is done)."""
@@ -260,10 +262,8 @@ class BatchSim:
         self.reset(seed=seed, episode_keys=episode_keys)
         fitness = np.zeros(self.n_episodes)
         solved = np.zeros(self.n_episodes, dtype=np.bool_)
-        a_ = self.arena
-        kernels.run_random(self.pose, self.raw, self.obs, self.racc, self.rflag, self.goto, self.est, a_.walls,
-                           a_.boxes, a_.sensor_dirs, a_.pois, a_.home, self._pvec, self.seed, self.keys,
-                           float(p_left), float(p_forward), fitness, solved)
+        kernels.run_random(self._state, self._geometry, self._task(), self._work, float(p_left), float(p_forward),
+                           (fitness, solved))
         self.prev_fit[:] = fitness
         self.solved[:] = solved
         return RunResult(fitness=fitness, solved=solved, collisions=self.racc[:, :, T.R_COLL].astype(np.int64))
@@ -296,11 +296,9 @@ class BatchSim:
         solved = np.zeros(B, dtype=np.bool_)
         T_ = self.params.max_cycles
         traj = np.zeros((B, T_ + 1, R, 4)) if record else np.zeros((1, 1, 1, 4))
-        a_ = self.arena
-        kernels.run_controllers(self.pose, self.raw, self.obs, self.racc, self.rflag, self.goto, self.est,
-                                a_.walls, a_.boxes, a_.sensor_dirs, a_.pois, a_.home, self._pvec,
-                                self.seed, self.keys, *transposed(ctrl),
-                                hid, out, brain, fitness, solved, traj, record)
+        nets = (*transposed(ctrl), hid, out, brain)
+        kernels.run_controllers(self._state, self._geometry, self._task(), self._work, nets,
+                                kernels.network_scratch(nets[0], n_hidden), (fitness, solved), traj, record)
         self.prev_fit[:] = fitness
         self.solved[:] = solved
         return RunResult(fitness=fitness, solved=solved, collisions=self.racc[:, :, T.R_COLL].astype(np.int64),

@@ -175,9 +175,9 @@ def test_ray_cast_matches_reference_bitwise(n_rays):
 
 
 @njit(error_model="numpy")
-def _reference_episodes(sim_state, weights, hid, out, brain, n_ticks, traj):
-    (pose, raw, obs, racc, rflag, goto, est, prev_fit, rewards, solved, walls, boxes, dirs, pois, home, params,
-     seed, keys, others, cand) = sim_state
+def _reference_episodes(sim_groups, weights, hid, out, brain, n_ticks, traj):
+    state, arena, task, work, scores = sim_groups
+    pose, raw, obs, racc, rflag, goto, est = state
     wt_ih, wt_hh, wt_ho, b_h, b_o = weights
     B, R = pose.shape[0], pose.shape[1]
     actions = np.zeros((B, R), np.int64)
@@ -187,8 +187,8 @@ def _reference_episodes(sim_state, weights, hid, out, brain, n_ticks, traj):
             for r in range(R):
                 actions[b, r] = reference_network(b, r, obs, rflag[b, r, 0], wt_ih, wt_hh, wt_ho, b_h, b_o,
                                                   hid, out, brain, tmp)
-        kernels.step_all(actions, pose, raw, obs, racc, rflag, goto, est, prev_fit, rewards, solved, walls, boxes,
-                         dirs, pois, home, params, seed, keys, others, cand)
+        kernels.forget_rays(work)  # no memos: every ray cast and every cos and sin computed again
+        kernels.step_all(actions, state, arena, task, work, scores)
         traj[:, t, :, :3] = pose[:, :, :3]
         traj[:, t, :, 3] = actions
 
@@ -207,10 +207,7 @@ def test_fused_episode_loop_matches_step_by_step_reference(brains, noisy):
     traj = np.zeros_like(fast.trajectories)
     traj[:, 0, :, :3] = sim.pose[:, :, :3]
     traj[:, 0, :, 3] = -1.0
-    state = (sim.pose, sim.raw, sim.obs, sim.racc, sim.rflag, sim.goto, sim.est, sim.prev_fit, sim.rewards, sim.solved,
-             sim.arena.walls, sim.arena.boxes, sim.arena.sensor_dirs, sim.arena.pois,
-             sim.arena.home, sim._pvec, sim.seed, sim.keys, sim._others,
-             sim._cand)
+    state = (sim._state, sim._geometry, sim._task(), sim._work, sim._scores)
     hid = np.zeros((5, 3, 9), np.float32)
     out = np.zeros((5, 3, 3), np.float32)
     brain = np.zeros((5, 3), np.int64)
@@ -259,10 +256,7 @@ def test_memos_match_the_step_by_step_reference_with_evolved_teams(kind, noisy):
     traj = np.zeros_like(fast.trajectories)
     traj[:, 0, :, :3] = sim.pose[:, :, :3]
     traj[:, 0, :, 3] = -1.0
-    state = (sim.pose, sim.raw, sim.obs, sim.racc, sim.rflag, sim.goto, sim.est, sim.prev_fit, sim.rewards, sim.solved,
-             sim.arena.walls, sim.arena.boxes, sim.arena.sensor_dirs, sim.arena.pois,
-             sim.arena.home, sim._pvec, sim.seed, sim.keys, sim._others,
-             sim._cand)
+    state = (sim._state, sim._geometry, sim._task(), sim._work, sim._scores)
     hid = np.zeros((n, 3, 9), np.float32)
     out = np.zeros((n, 3, 3), np.float32)
     brain = np.zeros((n, 3), np.int64)
