@@ -24,6 +24,7 @@ The plan is plain arrays (CSR terms), so a compiled kernel (numba) or a file can
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -118,47 +119,60 @@ class CppnPlan:
 
 def compile_cppn(genome: Genome, evaluate_modules: bool = False) -> CppnPlan:
     """Run the original's depth-first activation order once and record it as a :class:`CppnPlan`."""
-    kinds = {n.id: n.kind for n in genome.nodes}
-    acts = {n.id: n.activation for n in genome.nodes}
-    inputs = genome.input_ids
-    n_in = len(inputs)
-    zero_slot = n_in + 1
-    slot_of: dict[int, int] = {}
-    state: dict[int, int] = {}  # 1 = in progress, 2 = done
-    for n in genome.nodes:
-        if n.kind == "bias":
-            slot_of[n.id] = 0
-            state[n.id] = 2
-    for j, nid in enumerate(inputs):
-        slot_of[nid] = 1 + j
-        state[nid] = 2
+    builder = _PlanBuilder(genome, evaluate_modules)
+    for o in genome.output_ids:
+        builder.visit(o)
+    return builder.plan(genome.output_ids)
 
-    incoming: dict[int, list[tuple[int, float]]] = {}
-    for s, d, w in zip(genome.src.tolist(), genome.dst.tolist(), genome.weight.tolist()):
-        incoming.setdefault(d, []).append((s, w))
-    module_of_out: dict[int, tuple[int, ...]] = {}
-    for m in genome.modules:
-        for o in m.outputs:
-            module_of_out[o] = m.inputs
 
-    op_nodes: list[int] = []
-    op_act: list[int] = []
-    op_mode: list[int] = []
-    op_terms: list[list[tuple[int | None, float]]] = []  # (source node id or None for the zero slot, weight)
-    first_op = n_in + 2
+class _PlanBuilder:
+    """One genome's plan, built in three named steps: slots for the bias and the inputs (`__init__`), one operation
+    per node in the original's depth-first order (`visit`), and the operations packed as arrays (`plan`)."""
 
-    def sources_of(nid: int) -> tuple[list[tuple[int, float]], int]:
-        if kinds[nid] == "module_out":
-            if evaluate_modules:
-                return [(i, 1.0) for i in module_of_out.get(nid, ())], MODE_PRODUCT
+    def __init__(self, genome: Genome, evaluate_modules: bool) -> None:
+        self.evaluate_modules = evaluate_modules
+        self.kinds = {n.id: n.kind for n in genome.nodes}
+        self.acts = {n.id: n.activation for n in genome.nodes}
+        self.n_in = len(genome.input_ids)
+        self.zero_slot = self.n_in + 1
+        self.first_op = self.n_in + 2
+        self.slot_of: dict[int, int] = {}
+        self.state: dict[int, int] = {}  # 1 = in progress, 2 = done
+        for n in genome.nodes:
+            if n.kind == "bias":
+                self.slot_of[n.id] = 0
+                self.state[n.id] = 2
+        for j, nid in enumerate(genome.input_ids):
+            self.slot_of[nid] = 1 + j
+            self.state[nid] = 2
+        self.incoming: dict[int, list[tuple[int, float]]] = {}
+        for s, d, w in zip(genome.src.tolist(), genome.dst.tolist(), genome.weight.tolist()):
+            self.incoming.setdefault(d, []).append((s, w))
+        self.module_of_out: dict[int, tuple[int, ...]] = {}
+        for m in genome.modules:
+            for o in m.outputs:
+                self.module_of_out[o] = m.inputs
+        self.op_nodes: list[int] = []
+        self.op_act: list[int] = []
+        self.op_mode: list[int] = []
+        self.op_terms: list[list[tuple[int | None, float]]] = []  # (source node id or None for the zero slot, weight)
+
+    def sources_of(self, nid: int) -> tuple[list[tuple[int, float]], int]:
+        """A node's weighted sources and how they combine (a module output multiplies its inputs when modules are
+        evaluated, and reads 0 when they are not, as in the original code)."""
+        if self.kinds[nid] == "module_out":
+            if self.evaluate_modules:
+                return [(i, 1.0) for i in self.module_of_out.get(nid, ())], MODE_PRODUCT
             return [], MODE_SUM
-        return incoming.get(nid, []), MODE_SUM
+        return self.incoming.get(nid, []), MODE_SUM
 
-    def visit(root: int) -> None:
+    def visit(self, root: int) -> None:
+        """Record `root` and every node it depends on, depth first; a source still in progress (a cycle) adds 0."""
+        state = self.state
         if state.get(root) == 2:
             return
         # Iterative DFS: frames are [node, sources, mode, next index, terms].
-        srcs, mode = sources_of(root)
+        srcs, mode = self.sources_of(root)
         state[root] = 1
         stack: list[list] = [[root, srcs, mode, 0, []]]
         while stack:
@@ -174,40 +188,41 @@ def compile_cppn(genome: Genome, evaluate_modules: bool = False) -> CppnPlan:
                     continue
                 terms.append((s, w))
                 if st is None:
-                    s_srcs, s_mode = sources_of(s)
+                    s_srcs, s_mode = self.sources_of(s)
                     state[s] = 1
                     stack.append([s, s_srcs, s_mode, 0, []])
                 continue
             stack.pop()
-            state[nid] = 2
-            slot_of[nid] = first_op + len(op_nodes)
-            op_nodes.append(nid)
-            op_mode.append(mode)
-            if kinds[nid] == "module_out":
-                op_act.append(_IDENTITY if mode == MODE_PRODUCT else _ZERO)
-            else:
-                op_act.append(activation_code(acts[nid]))
-            op_terms.append(terms)
+            self._record(nid, mode, terms)
 
-    outputs = genome.output_ids
-    for o in outputs:
-        visit(o)
+    def _record(self, nid: int, mode: int, terms: list[tuple[int | None, float]]) -> None:
+        self.state[nid] = 2
+        self.slot_of[nid] = self.first_op + len(self.op_nodes)
+        self.op_nodes.append(nid)
+        self.op_mode.append(mode)
+        if self.kinds[nid] == "module_out":
+            self.op_act.append(_IDENTITY if mode == MODE_PRODUCT else _ZERO)
+        else:
+            self.op_act.append(activation_code(self.acts[nid]))
+        self.op_terms.append(terms)
 
-    ptr = [0]
-    t_src: list[int] = []
-    t_w: list[float] = []
-    for terms in op_terms:
-        for s, w in terms:
-            t_src.append(zero_slot if s is None else slot_of[s])
-            t_w.append(w)
-        ptr.append(len(t_src))
-    return CppnPlan(
-        n_inputs=n_in,
-        node_ids=np.asarray(op_nodes, dtype=np.int64),
-        op_act=np.asarray(op_act, dtype=np.int64),
-        op_mode=np.asarray(op_mode, dtype=np.int64),
-        term_ptr=np.asarray(ptr, dtype=np.int64),
-        term_src=np.asarray(t_src, dtype=np.int64),
-        term_weight=np.asarray(t_w, dtype=np.float64),
-        output_slots=np.asarray([slot_of[o] for o in outputs], dtype=np.int64),
-    )
+    def plan(self, outputs: Sequence[int]) -> CppnPlan:
+        """The recorded operations as arrays, their terms in compressed rows (`term_ptr`)."""
+        ptr = [0]
+        t_src: list[int] = []
+        t_w: list[float] = []
+        for terms in self.op_terms:
+            for s, w in terms:
+                t_src.append(self.zero_slot if s is None else self.slot_of[s])
+                t_w.append(w)
+            ptr.append(len(t_src))
+        return CppnPlan(
+            n_inputs=self.n_in,
+            node_ids=np.asarray(self.op_nodes, dtype=np.int64),
+            op_act=np.asarray(self.op_act, dtype=np.int64),
+            op_mode=np.asarray(self.op_mode, dtype=np.int64),
+            term_ptr=np.asarray(ptr, dtype=np.int64),
+            term_src=np.asarray(t_src, dtype=np.int64),
+            term_weight=np.asarray(t_w, dtype=np.float64),
+            output_slots=np.asarray([self.slot_of[o] for o in outputs], dtype=np.int64),
+        )
