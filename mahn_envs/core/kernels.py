@@ -339,11 +339,7 @@ def run_controllers(state, arena, task, work, nets, brains, result, traj, record
                     traj[b, tick, r, 3] = action
             # `move_tick`, `score_tick`, `sense_tick` of the shared tick, on the episode's memo rows
             for r in range(n_robots):
-                h = pose[b, r, H]
-                if not (h == at[r, 0] and h != 0.0):
-                    trig[r, 0] = math.cos(h)
-                    trig[r, 1] = math.sin(h)
-                    at[r, 0] = h
+                heading_trig(b, r, pose[b, r, H], trig_all, at_all)
                 drive_robot(b, r, trig[r, 0], trig[r, 1], pose, racc, params, walls, boxes)
             score_tick(b, tick, pose, racc, rflag, goto, est, pois, home, params)
             if record:
@@ -358,10 +354,7 @@ def run_controllers(state, arena, task, work, nets, brains, result, traj, record
                     h = pose[b, r, H]
                     if see or not (x == at[r, 1] and y == at[r, 2] and h == at[r, 3] and x != 0.0 and y != 0.0
                                    and h != 0.0):
-                        if not (h == at[r, 0] and h != 0.0):
-                            trig[r, 0] = math.cos(h)
-                            trig[r, 1] = math.sin(h)
-                            at[r, 0] = h
+                        heading_trig(b, r, h, trig_all, at_all)
                         cast_robot_rays(b, r, trig[r, 0], trig[r, 1], pose, raw, walls, boxes, dirs, params, others,
                                         cand)
                         at[r, 1] = x
