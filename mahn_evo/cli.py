@@ -7,6 +7,8 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
+from mahn_envs.core.controller import DECISIONS
+
 from .cppn import CPPN_ACTIVATIONS
 from .evaluation.task_setup import NOISE_PRESETS
 from .hyperneat.substrate import MODES
@@ -24,6 +26,9 @@ def _fidelity_and_robustness_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--cppn-activation", choices=CPPN_ACTIVATIONS,
                    help="recursive (default: the original's one depth-first pass, recurrent CPPN links add 0) or "
                         "relax (its MultipleSteps relaxation: modules and recurrent links live)")
+    p.add_argument("--decision", choices=DECISIONS,
+                   help="how outputs become actions: output (default: the original's winner-take-all on the output "
+                        "sigmoids, which float32 saturates into exact ties) or net_input (on their net inputs)")
     p.add_argument("--noise", choices=sorted(NOISE_PRESETS),
                    help="task noise during training (default none); with --episodes K > 1 teams are scored on K "
                         "noisy episodes")
@@ -185,11 +190,13 @@ def cmd_experiment(args) -> int:
     neat = {k: v for k, v in base.neat.to_dict().items() if v != EvolutionConfig().neat.to_dict().get(k)}
     d = ExperimentPlan()
     chosen = {"init": args.init, "evaluate_modules": args.evaluate_modules, "cppn_activation": args.cppn_activation,
+              "decision": args.decision,
               "noise": args.noise, "episodes": args.episodes, "noise_draws": args.noise_draws,
               "aggregate": args.aggregate, "quantile": args.quantile,
               "noise_free_episode": args.noise_free_episode}
-    from_base = {k: getattr(base, k) for k in ("init", "evaluate_modules", "cppn_activation", "episodes",
-                                                "noise_draws", "aggregate", "quantile", "noise_free_episode")
+    from_base = {k: getattr(base, k) for k in ("init", "evaluate_modules", "cppn_activation", "decision",
+                                                "episodes", "noise_draws", "aggregate", "quantile",
+                                                "noise_free_episode")
                  if args.preset or args.config}
     fields = {k: getattr(d, k) for k in chosen} | from_base | {k: v for k, v in chosen.items() if v is not None}
     plan = ExperimentPlan(modes=tuple(args.modes), runs=args.runs, seed=args.seed, generations=args.generations,
@@ -265,7 +272,8 @@ def cmd_train(args) -> int:
     overrides = dict(mode=args.mode, generations=args.generations, pop=args.pop, seed=args.seed, init=args.init,
                      map=args.map, episodes=args.episodes, evaluate_modules=args.evaluate_modules,
                      stop_when_solved=args.stop_when_solved, after_solved=args.after_solved,
-                     cppn_activation=args.cppn_activation, noise_draws=args.noise_draws, aggregate=args.aggregate,
+                     cppn_activation=args.cppn_activation, decision=args.decision, noise_draws=args.noise_draws,
+                     aggregate=args.aggregate,
                      quantile=args.quantile, noise_free_episode=args.noise_free_episode)
     if args.resume and (args.out / "config.json").exists() and not args.config and not args.preset:
         from .storage.files import read_versioned_json

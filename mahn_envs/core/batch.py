@@ -283,9 +283,7 @@ class BatchSim:
         if n_teams not in (1, self.n_episodes):
             raise ValueError(f"{n_teams} teams for {self.n_episodes} episodes: give one team or one per episode")
         if n_teams == 1 and self.n_episodes > 1:
-            ctrl = TeamControllers(*(np.ascontiguousarray(np.broadcast_to(getattr(ctrl, f),
-                                     (self.n_episodes,) + getattr(ctrl, f).shape[1:]))
-                                     for f in ("w_ih", "w_hh", "w_ho", "b_h", "b_o")))
+            ctrl = ctrl.repeated(self.n_episodes)
         self.reset(seed=seed, poses=poses, episode_keys=episode_keys)
         B, R = self.n_episodes, self.n_robots
         n_hidden = ctrl.w_hh.shape[-1]
@@ -296,7 +294,7 @@ class BatchSim:
         solved = np.zeros(B, dtype=np.bool_)
         T_ = self.params.max_cycles
         traj = np.zeros((B, T_ + 1, R, 4)) if record else np.zeros((1, 1, 1, 4))
-        nets = (*transposed(ctrl), hid, out, brain)
+        nets = (*transposed(ctrl), hid, out, brain, ctrl.decision == "net_input")
         kernels.run_controllers(self._state, self._geometry, self._task(), self._work, nets,
                                 kernels.network_scratch(nets[0], n_hidden), (fitness, solved), traj, record)
         self.prev_fit[:] = fitness

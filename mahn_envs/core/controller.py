@@ -29,6 +29,15 @@ def _sigmoid(x):
     return np.float32(1.0) / (np.float32(1.0) + expf(-SIGMOID_SLOPE * x))
 
 
+#: How a network's three values become an action.  "output": winner-take-all on the outputs, the sigmoids of their
+#: net inputs (the original's rule).  In float32 the steep sigmoid saturates to exactly 1.0 (or 0.0) for net inputs
+#: beyond about +-3.5 (+-21 at 0.0), so evolved teams often decide by exact ties (forward wins them) that any
+#: perturbation reaching an output flips.  "net_input": the same winner-take-all on the net inputs (sum + bias)
+#: themselves: the same action whenever the sigmoids differ (the sigmoid is monotone), but a saturated tie goes to
+#: the output the network drives hardest, so decisions keep a real margin.
+DECISIONS = ("output", "net_input")
+
+
 @njit(cache=True, error_model="numpy", inline="always")
 def winner_take_all(o0, o1, o2):
     """Forward wins every tie, then left beats right; NaN outputs decide nothing (the original's rule)."""
@@ -49,17 +58,20 @@ def transposed(controllers) -> tuple:
 
 
 @njit(cache=True, error_model="numpy")
-def network_action(b, r, obs, rflag_signal, wt_ih, wt_hh, wt_ho, b_h, b_o, hid, out, brain, tmp):
-    """Two synchronous network steps on this tick's inputs, then winner-take-all.
+def network_action(b, r, obs, rflag_signal, wt_ih, wt_hh, wt_ho, b_h, b_o, hid, out, brain, tmp, by_net=False):
+    """Two synchronous network steps on this tick's inputs, then winner-take-all on the outputs (or, `by_net`, on
+    their net inputs: see DECISIONS).
 
     Weights come transposed ([source, target], see `transposed`) so the inner loops run over contiguous
     targets.  Situational teams switch to brain 1 with zeroed state on the first tick they see the signal.
-    State (`hid`, `out`, `brain`: (B, R, ...)) persists across ticks; `tmp` is float32 scratch of n_hidden + 3.
+    State (`hid`, `out`, `brain`: (B, R, ...)) persists across ticks; `tmp` is float32 scratch of n_hidden + 3,
+    whose last three hold the outputs' net inputs on return.
     Networks of the substrate's size (7 inputs, 9 hidden) run in `network_action_9`, which gives the same
     results faster; other sizes run the general loops here.
     """
     if is_size_9(wt_ih):
-        return network_action_9(b, r, obs, rflag_signal, wt_ih, wt_hh, wt_ho, b_h, b_o, hid, out, brain, tmp)
+        return network_action_9(b, r, obs, rflag_signal, wt_ih, wt_hh, wt_ho, b_h, b_o, hid, out, brain, tmp,
+                                by_net)
     n_brains = wt_ih.shape[2]
     n_hidden = wt_hh.shape[3]
     n_in = wt_ih.shape[3]
@@ -93,9 +105,12 @@ def network_action(b, r, obs, rflag_signal, wt_ih, wt_hh, wt_ho, b_h, b_o, hid, 
                 tmp[i] += wt_hh[b, r, k, m, i] * hm
         # outputs read the hidden state of the previous step
         for q in range(3):
-            out[b, r, q] = _sigmoid(tmp[n_hidden + q] + b_o[b, r, k, q])
+            tmp[n_hidden + q] = tmp[n_hidden + q] + b_o[b, r, k, q]
+            out[b, r, q] = _sigmoid(tmp[n_hidden + q])
         for i in range(n_hidden):
             hid[b, r, i] = _sigmoid(tmp[i] + b_h[b, r, k, i])
+    if by_net:
+        return winner_take_all(tmp[n_hidden], tmp[n_hidden + 1], tmp[n_hidden + 2])
     return winner_take_all(out[b, r, 0], out[b, r, 1], out[b, r, 2])
 
 
@@ -169,7 +184,7 @@ def _hidden_step_9(b, r, k, obs, wt_ih, wt_hh, b_h, hid, tmp, ih_at, hh_at, obs_
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def network_action_9(b, r, obs, rflag_signal, wt_ih, wt_hh, wt_ho, b_h, b_o, hid, out, brain, tmp):
+def network_action_9(b, r, obs, rflag_signal, wt_ih, wt_hh, wt_ho, b_h, b_o, hid, out, brain, tmp, by_net=False):
     """`network_action` for 7 inputs and 9 hidden nodes (see `is_size_9`): the same float32 operations in the
     same order, so bit-identical results, in about half the time.
 
@@ -205,13 +220,16 @@ def network_action_9(b, r, obs, rflag_signal, wt_ih, wt_hh, wt_ho, b_h, b_o, hid
         tmp[9 + q] = acc
     _hidden_step_9(b, r, k, obs, wt_ih, wt_hh, b_h, hid, tmp, ih_at, hh_at, obs_at, hid_at)
     for q in range(3):
-        out[b, r, q] = _sigmoid(tmp[9 + q] + b_o[b, r, k, q])
+        tmp[9 + q] = tmp[9 + q] + b_o[b, r, k, q]
+        out[b, r, q] = _sigmoid(tmp[9 + q])
+    if by_net:
+        return winner_take_all(tmp[9], tmp[10], tmp[11])
     return winner_take_all(out[b, r, 0], out[b, r, 1], out[b, r, 2])
 
 
 @njit(cache=True, error_model="numpy", inline="always")
 def remembered_action(b, r, obs, rflag_signal, wt_ih, wt_hh, wt_ho, b_h, b_o, hid, out, brain, tmp, prev,
-                      memo_obs, memo):
+                      memo_obs, memo, by_net=False):
     """`network_action`, skipped when it would repeat itself exactly.
 
     The network is a pure function of (inputs, signal, hidden state, brain).  When the last call left the
@@ -236,9 +254,11 @@ def remembered_action(b, r, obs, rflag_signal, wt_ih, wt_hh, wt_ho, b_h, b_o, hi
         prev[i] = hid[b, r, i]
     k = brain[b, r]
     if is_size_9(wt_ih):
-        action = network_action_9(b, r, obs, rflag_signal, wt_ih, wt_hh, wt_ho, b_h, b_o, hid, out, brain, tmp)
+        action = network_action_9(b, r, obs, rflag_signal, wt_ih, wt_hh, wt_ho, b_h, b_o, hid, out, brain, tmp,
+                                  by_net)
     else:
-        action = network_action(b, r, obs, rflag_signal, wt_ih, wt_hh, wt_ho, b_h, b_o, hid, out, brain, tmp)
+        action = network_action(b, r, obs, rflag_signal, wt_ih, wt_hh, wt_ho, b_h, b_o, hid, out, brain, tmp,
+                                by_net)
     fixed = brain[b, r] == k
     for i in range(n_hidden):
         if hid[b, r, i] != prev[i]:
@@ -251,9 +271,11 @@ def remembered_action(b, r, obs, rflag_signal, wt_ih, wt_hh, wt_ho, b_h, b_o, hi
     return action
 
 
-#: lanes of a packed network (`pack_networks`): hidden nodes 0..8, outputs 9..11, 4 unused
+#: lanes of a packed network (`pack_networks`): hidden nodes 0..8, outputs 9..11, the outputs' net inputs 12..14
+#: (written by `_network_16`, read by nothing but the "net_input" decision), 1 unused
 LANES = 16
 OUT_LANE = 9
+NET_LANE = 12
 
 
 @njit(cache=True, error_model="numpy")
@@ -292,7 +314,9 @@ def _network_16(typingctx, state, state_at, wpack, w_at, bpack, b_at, obs, obs_a
     hidden nodes of the previous step, then the sigmoid of sum + bias (`sigmoid_ir`).  IEEE vector arithmetic
     is lane-wise and without fast-math LLVM neither fuses nor reorders it, so every node is bit-identical to
     the scalar network; one vector operation per source replaces the separate hidden, node 8 and output chains.
-    Step 1's output lanes are not used (step 2 recomputes the outputs before anything reads them).
+    Step 1's output lanes are not used (step 2 recomputes the outputs before anything reads them).  Step 2's
+    output net inputs (sum + bias, before the sigmoid) are kept in lanes NET_LANE..NET_LANE+2 for the
+    "net_input" decision.
     """
     f4 = types.float32
     if not (isinstance(state, types.Array) and state.dtype == f4 and state.layout == "C"
@@ -336,7 +360,11 @@ def _network_16(typingctx, state, state_at, wpack, w_at, bpack, b_at, obs, obs_a
             for m in range(9):
                 hm = splat(builder.extract_element(s, ir.Constant(i32, m)))
                 acc = builder.fadd(acc, builder.fmul(row(p_w, w_at, LANES * (7 + m)), hm))
-            s = sigmoid_ir(builder, builder.fadd(acc, bias), p_tab)
+            net = builder.fadd(acc, bias)
+            s = sigmoid_ir(builder, net, p_tab)
+        # lanes NET_LANE.. take the output lanes' net inputs (index LANES + i picks lane i of `net`)
+        keep = list(range(NET_LANE)) + [LANES + OUT_LANE + q for q in range(3)] + [LANES - 1]
+        s = builder.shuffle_vector(s, net, ir.Constant(ir.VectorType(i32, LANES), keep))
         builder.store(s, builder.bitcast(ptr(p_state, state_at, 0), vf.as_pointer()), align=4)
         return context.get_dummy_value()
 
@@ -344,9 +372,11 @@ def _network_16(typingctx, state, state_at, wpack, w_at, bpack, b_at, obs, obs_a
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def remembered_action_16(b, r, obs, rflag_signal, n_brains, wpack, bpack, state, brain, prev, memo_obs, memo):
+def remembered_action_16(b, r, obs, rflag_signal, n_brains, wpack, bpack, state, brain, prev, memo_obs, memo,
+                         by_net=False):
     """`remembered_action` for packed networks (`pack_networks`): the same memo, brain switch and results, the
-    two steps in `_network_16`.  state (B, R, 16) float32 holds hidden nodes 0..8 and outputs 9..11."""
+    two steps in `_network_16`.  state (B, R, 16) float32 holds hidden nodes 0..8, outputs 9..11 and their net
+    inputs 12..14."""
     if memo[r, 0] == 1 and memo[r, 1] == rflag_signal:
         same = True
         for j in range(7):
@@ -365,7 +395,8 @@ def remembered_action_16(b, r, obs, rflag_signal, n_brains, wpack, bpack, state,
     unit = (b * state.shape[1] + r) * n_brains + brain[b, r]
     _network_16(state, (b * state.shape[1] + r) * LANES, wpack, unit * LANES * LANES, bpack, unit * LANES, obs,
                 (b * obs.shape[1] + r) * obs.shape[2], TABLE)
-    action = winner_take_all(state[b, r, OUT_LANE], state[b, r, OUT_LANE + 1], state[b, r, OUT_LANE + 2])
+    at = NET_LANE if by_net else OUT_LANE
+    action = winner_take_all(state[b, r, at], state[b, r, at + 1], state[b, r, at + 2])
     fixed = brain[b, r] == k
     for i in range(9):
         if state[b, r, i] != prev[i]:

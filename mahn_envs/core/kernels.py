@@ -15,7 +15,8 @@ arrays one by one, a namedtuple more slowly, which the env's per-step calls woul
   arena  (walls, boxes, dirs, pois, home)               the map's geometry (core.api.Arena)
   task   (params, seed, keys)                           TaskParams.vector(), the random streams' seed, episode keys
   work   (trig, at, others, cand)                       memos and scratch, one row per episode (below)
-  nets   (wt_ih, wt_hh, wt_ho, b_h, b_o, hid, out, brain)  `transposed` controllers and their state
+  nets   (wt_ih, wt_hh, wt_ho, b_h, b_o, hid, out, brain, by_net)  `transposed` controllers, their state and
+                                                        decision rule (core.controller.DECISIONS)
   brains (wpack, bpack, lanes, tmp, prev, memo_obs, memo)   packed networks, network scratch and memos
                                                         (`network_scratch`)
   scores (prev_fit, rewards, solved)                    the team fitness so far and its change in the last tick
@@ -286,6 +287,7 @@ def run_controllers(state, arena, task, work, nets, brains, result, traj, record
     hid = nets[5]
     out = nets[6]
     brain = nets[7]
+    by_net = nets[8]
     wpack = brains[0]
     bpack = brains[1]
     lanes = brains[2]
@@ -330,10 +332,10 @@ def run_controllers(state, arena, task, work, nets, brains, result, traj, record
             for r in range(n_robots):
                 if size_9:
                     action = remembered_action_16(b, r, obs, rflag[b, r, F_SIGNAL], n_brains, wpack, bpack, lanes,
-                                                  brain, prev, memo_obs, memo)
+                                                  brain, prev, memo_obs, memo, by_net)
                 else:
                     action = remembered_action(b, r, obs, rflag[b, r, F_SIGNAL], wt_ih, wt_hh, wt_ho, b_h, b_o,
-                                               hid, out, brain, tmp_h, prev, memo_obs, memo)
+                                               hid, out, brain, tmp_h, prev, memo_obs, memo, by_net)
                 decide_robot(b, r, action, tick, pose, raw, params, seed, key)
                 if record:
                     traj[b, tick, r, 3] = action

@@ -29,6 +29,7 @@ class ControllerPolicy:
         self.agents = list(agents)
         self.n_robots = len(self.agents)
         self._n_hidden = controllers.w_hh.shape[-1]
+        self._by_net = controllers.decision == "net_input"
         self._tmp = np.zeros(self._n_hidden + 3, dtype=np.float32)
         self._episodes = 0
         self.reset(1)
@@ -45,10 +46,12 @@ class ControllerPolicy:
             self._obs = np.zeros((n, R, 7), dtype=np.float32)
             self._hid = np.zeros((n, R, self._n_hidden), dtype=np.float32)
             self._out = np.zeros((n, R, 3), dtype=np.float32)
+            self._net = np.zeros((n, R, 3), dtype=np.float32)
             self._brain = np.zeros((n, R), dtype=np.int64)
             self._episodes = n
         self._hid[:] = 0.0
         self._out[:] = 0.0
+        self._net[:] = 0.0
         self._brain[:] = 0
 
     def snapshot(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -62,6 +65,12 @@ class ControllerPolicy:
     def outputs(self) -> np.ndarray:
         """Last network outputs (R, 3): left, forward, right."""
         return self._out[0].copy()
+
+    @property
+    def decision_values(self) -> np.ndarray:
+        """The last values (R, 3) the action was chosen from: the outputs, or their net inputs for teams that
+        decide by them (TeamControllers.decision)."""
+        return (self._net if self._by_net else self._out)[0].copy()
 
     def act_batch(self, obs: np.ndarray) -> np.ndarray:
         """Observations (B, R, 7) of B lock-step episodes -> actions (B, R); a new B starts B fresh episodes."""
@@ -92,5 +101,7 @@ class ControllerPolicy:
 
     def _step(self, b: int, r: int) -> int:
         sig = 1 if self._obs[b, r, 6] > 0.5 else 0
-        a = network_action(b, r, self._obs, sig, *self._weights, self._hid, self._out, self._brain, self._tmp)
+        a = network_action(b, r, self._obs, sig, *self._weights, self._hid, self._out, self._brain, self._tmp,
+                           self._by_net)
+        self._net[b, r] = self._tmp[self._n_hidden:]
         return int(a) if a <= 2 else 1  # NaN outputs cannot occur with finite weights

@@ -11,6 +11,8 @@ from typing import Any
 
 import numpy as np
 
+from ..core.controller import DECISIONS
+
 N_INPUTS = 7
 N_HIDDEN = 9
 N_OUTPUTS = 3
@@ -22,7 +24,8 @@ class TeamControllers:
     """Controllers of one team (arrays (R, K, ...)) or of a batch of teams (arrays (B, R, K, ...)).
 
     K = 2 brains means situational policy geometry (switch at the signal, fresh state);
-    K = 1 means standard geometry (the signal is input 6).
+    K = 1 means standard geometry (the signal is input 6).  `decision` is how the outputs become an action
+    (core.controller.DECISIONS): part of the team, because the same weights act differently under each rule.
     """
 
     w_ih: np.ndarray
@@ -30,8 +33,11 @@ class TeamControllers:
     w_ho: np.ndarray
     b_h: np.ndarray
     b_o: np.ndarray
+    decision: str = "output"
 
     def __post_init__(self) -> None:
+        if self.decision not in DECISIONS:
+            raise ValueError(f"controllers: decision must be one of {DECISIONS}, got {self.decision!r}")
         arrays = {}
         for name in _FIELDS:
             a = np.ascontiguousarray(getattr(self, name), dtype=np.float32)
@@ -73,21 +79,29 @@ class TeamControllers:
         """A batch of one team (no copy when already batched)."""
         if self.batched:
             return self
-        return TeamControllers(*(getattr(self, f)[None] for f in _FIELDS))
+        return TeamControllers(*(getattr(self, f)[None] for f in _FIELDS), decision=self.decision)
 
     def repeated(self, n: int) -> TeamControllers:
         """The batch's teams repeated n times along the batch axis (one team acting in n lock-step episodes)."""
         b = self.as_batch()
-        return TeamControllers(*(np.repeat(getattr(b, f), int(n), axis=0) for f in _FIELDS))
+        return TeamControllers(*(np.repeat(getattr(b, f), int(n), axis=0) for f in _FIELDS), decision=self.decision)
 
     def team(self, index: int) -> TeamControllers:
         if not self.batched:
             raise ValueError("team(index) needs a batch of teams")
-        return TeamControllers(*(getattr(self, f)[index] for f in _FIELDS))
+        return TeamControllers(*(getattr(self, f)[index] for f in _FIELDS), decision=self.decision)
+
+    def with_decision(self, decision: str) -> TeamControllers:
+        """The same networks deciding by `decision` (core.controller.DECISIONS); the arrays are shared."""
+        return TeamControllers(*(getattr(self, f) for f in _FIELDS), decision=decision)
 
     @staticmethod
     def stack(teams: list[TeamControllers]) -> TeamControllers:
-        return TeamControllers(*(np.stack([getattr(t, f) for t in teams]) for f in _FIELDS))
+        rules = {t.decision for t in teams}
+        if len(rules) > 1:
+            raise ValueError(f"cannot stack teams that decide by different rules {sorted(rules)}")
+        return TeamControllers(*(np.stack([getattr(t, f) for t in teams]) for f in _FIELDS),
+                               decision=rules.pop() if rules else "output")
 
     def to_dict(self) -> dict[str, Any]:
         """Plain JSON: nested lists of float32 values (exact through float64 JSON round trip)."""
@@ -95,13 +109,19 @@ class TeamControllers:
                 "layout": "w_ih[r][k][hidden][input], w_hh[r][k][target][source], w_ho[r][k][output][hidden], "
                           "b_h[r][k][hidden], b_o[r][k][output]; inputs: 6 IR (left first) then signal; "
                           "outputs: left, forward, right",
+                "decision": self.decision,
                 **{f: getattr(self, f).astype(np.float64).tolist() for f in _FIELDS}}
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any]) -> TeamControllers:
+        """Controllers from `to_dict`'s JSON; without "decision" (files before it existed) they decide by the
+        outputs, the only rule there was."""
         missing = [f for f in _FIELDS if f not in data]
         if missing:
             raise ValueError(f"controllers: missing field(s) {missing}")
+        decision = data.get("decision", "output")
+        if decision not in DECISIONS:
+            raise ValueError(f"controllers: field 'decision' must be one of {DECISIONS}, got {decision!r}")
         arrays = []
         for f in _FIELDS:
             try:
@@ -111,4 +131,4 @@ class TeamControllers:
             if raw.dtype.kind not in "iuf":  # np.float32("1.5") would silently accept a string
                 raise TypeError(f"controllers: field {f!r} must hold numbers, got {raw.dtype.name} values")
             arrays.append(raw.astype(np.float32))
-        return cls(*arrays)
+        return cls(*arrays, decision=decision)

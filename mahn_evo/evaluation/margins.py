@@ -44,8 +44,9 @@ def decision_margins(champion: Champion | str | Path, map: str = "plus", params:
                      seed: int = 0, probe: float = PROBE) -> dict[str, Any]:
     """Margin statistics of one training-protocol episode (kinematic engine).
 
-    Returns the number of decisions, the fraction decided by an exact tie of the top two outputs, the fraction
-    of near-ties (margin < `NEAR_TIE`), the median margin and the median top output (near 1.0 or 0.0 means
+    Margins are between the values the team decides by (its outputs, or their net inputs for a team with
+    decision "net_input").  Returns the number of decisions, the fraction decided by an exact tie of the top two,
+    the fraction of near-ties (margin < `NEAR_TIE`), the median margin and the median top output (near 1.0 or 0.0 means
     saturated outputs), how many decisions the probe flips (inputs jittered by +-`probe` from the same network
     state; the episode itself runs on the true inputs: a handful of flips at a junction is enough to fail), and
     the episode's team fitness.
@@ -68,11 +69,12 @@ def decision_margins(champion: Champion | str | Path, map: str = "plus", params:
             actions = policy.act(obs)
             flips += sum(probed[a] != actions[a] for a in actions)
             out = policy.outputs
+            values = policy.decision_values
             for r, agent in enumerate(env.possible_agents):
                 if agent in obs:
-                    ranked = np.sort(out[r])
+                    ranked = np.sort(values[r])
                     margins.append(float(ranked[2] - ranked[1]))
-                    tops.append(float(ranked[2]))
+                    tops.append(float(np.max(out[r])))
             obs, _, _, _, infos = env.step(actions)
     finally:
         env.close()
@@ -83,4 +85,5 @@ def decision_margins(champion: Champion | str | Path, map: str = "plus", params:
             "near_tie_fraction": float(np.mean(m < NEAR_TIE)),
             "median_margin": float(np.median(m)), "median_top_output": float(np.median(tops)),
             "probe": probe, "flipped": int(flips), "flipped_fraction": flips / max(1, m.size),
+            "decision": champ.controllers.decision,
             "fitness": float(info["team_fitness"]), "solved": bool(info["solved"])}

@@ -33,6 +33,7 @@ class ExperimentPlan:
     init: str = "iros2011"  # the trainer's defaults (see EvolutionConfig)
     evaluate_modules: bool = True
     cppn_activation: str = "recursive"
+    decision: str = "output"
     #: robust evaluation (see EvolutionConfig): a task noise preset, episodes per team, their draws and aggregation
     noise: str = "none"
     episodes: int = 1
@@ -82,6 +83,7 @@ class ExperimentPlan:
     def train_config(self, mode: str, seed: int) -> EvolutionConfig:
         base = EvolutionConfig(mode=mode, generations=self.generations, seed=seed, init=self.init, map=self.map,
                            evaluate_modules=self.evaluate_modules, cppn_activation=self.cppn_activation,
+                           decision=self.decision,
                            episodes=self.episodes, noise_draws=self.noise_draws, aggregate=self.aggregate,
                            quantile=self.quantile, noise_free_episode=self.noise_free_episode,
                            stop_when_solved=True,

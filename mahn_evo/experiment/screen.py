@@ -59,7 +59,7 @@ def screen_results(folders: Sequence[str | Path], baseline: str, mode: str = "si
             "survival": [float(np.mean([r.first_solved is not None and r.first_solved <= g for r in rows]))
                          if rows else 0.0 for g in range(G)],
             "plan": {k: v for k, v in plan.to_dict().items()
-                     if k in ("init", "evaluate_modules", "cppn_activation", "neat", "noise", "episodes",
+                     if k in ("init", "evaluate_modules", "cppn_activation", "decision", "neat", "noise", "episodes",
                               "noise_draws", "aggregate", "population")},
         }
         if name != baseline and rows:

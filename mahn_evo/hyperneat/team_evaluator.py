@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from mahn_envs.core import BatchSim, TaskParams
+from mahn_envs.core.controller import DECISIONS
 from mahn_envs.core.rng import check_seed
 from mahn_envs.maps import load_map
 from mahn_envs.policies.team_controllers import TeamControllers
@@ -48,6 +49,9 @@ class EvaluationSettings:
     evaluate_modules: bool = True
     #: "recursive" (the original's depth-first pass) or "relax" (its MultipleSteps relaxation)
     cppn_activation: str = "recursive"
+    #: how the networks' outputs become actions (mahn_envs.core.controller.DECISIONS): "output" (the original's
+    #: winner-take-all on the sigmoids) or "net_input" (on their net inputs: no float32 saturation ties)
+    decision: str = "output"
     noise_draws: str = "fixed"
     aggregate: str = "mean"
     #: the quantile of the episode fitnesses with aggregate "quantile"
@@ -59,8 +63,8 @@ class EvaluationSettings:
     def __post_init__(self) -> None:
         if self.mode not in MODES:
             raise ValueError(f"mode must be one of {MODES}, got {self.mode!r}")
-        for name, allowed in (("cppn_activation", CPPN_ACTIVATIONS), ("noise_draws", NOISE_DRAWS),
-                              ("aggregate", AGGREGATES)):
+        for name, allowed in (("cppn_activation", CPPN_ACTIVATIONS), ("decision", DECISIONS),
+                              ("noise_draws", NOISE_DRAWS), ("aggregate", AGGREGATES)):
             if getattr(self, name) not in allowed:
                 raise ValueError(f"{name} must be one of {allowed}, got {getattr(self, name)!r}")
         if isinstance(self.quantile, bool) or not isinstance(self.quantile, (int, float)) \
@@ -128,7 +132,7 @@ class TeamEvaluator:
     def decode(self, genomes: Sequence) -> TeamControllers:
         s = self.settings
         plans = [compile_genome(g, s.cppn_activation, s.evaluate_modules) for g in genomes]
-        return decode_population(plans, s.mode, self.world.n_robots)
+        return decode_population(plans, s.mode, self.world.n_robots).with_decision(s.decision)
 
     def _sim(self, n: int) -> BatchSim:
         if n not in self._sims:
@@ -156,7 +160,8 @@ class TeamEvaluator:
         ctrl = controllers.as_batch()
         first, index = distinct_teams(ctrl)
         if len(first) < ctrl.w_ih.shape[0]:
-            ctrl = TeamControllers(*(np.ascontiguousarray(getattr(ctrl, f)[first]) for f in CONTROLLER_FIELDS))
+            ctrl = TeamControllers(*(np.ascontiguousarray(getattr(ctrl, f)[first]) for f in CONTROLLER_FIELDS),
+                                   decision=ctrl.decision)
         n = ctrl.w_ih.shape[0]
         sim = self._sim(n)
         keys = self.episode_keys(generation)

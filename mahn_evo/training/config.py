@@ -31,8 +31,9 @@ class EvolutionConfig:
     """Everything that determines a run.  Same config (seed included) -> bit-identical run.
 
     The fields that say how genomes are scored (mode, map, task, episodes, seed, evaluate_modules, cppn_activation,
-    noise_draws, aggregate, quantile, noise_free_episode) are those of the evaluator's `EvaluationSettings`, which
-    checks them; `evaluation` builds that record.  They stay flat here, as config.json has always held them.
+    decision, noise_draws, aggregate, quantile, noise_free_episode) are those of the evaluator's
+    `EvaluationSettings`, which checks them; `evaluation` builds that record.  They stay flat here, as config.json
+    has always held them.
     """
 
     mode: str = "situational"
@@ -48,6 +49,9 @@ class EvolutionConfig:
     #: "recursive": the original's one depth-first CPPN pass; "relax": its MultipleSteps relaxation (modules and
     #: recurrent CPPN links live; see mahn_evo/cppn/relax.py)
     cppn_activation: str = "recursive"
+    #: "output": the original's winner-take-all on the output sigmoids; "net_input": on their net inputs, so no
+    #: decision rests on a float32 saturation tie (see mahn_envs.core.controller.DECISIONS)
+    decision: str = "output"
     #: episodes per team per generation; with noise in `task` (robust evaluation) see TeamEvaluator
     episodes: int = 1
     noise_draws: str = "fixed"
