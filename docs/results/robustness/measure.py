@@ -1,5 +1,6 @@
 """Transfer measures of trained champions: noise-free fitness, fitness under the generalisation noise, decision
-margins, the sequential (real-world) protocol with noise, and the Khepera III emulator in lock-step time.
+margins, the sequential (real-world) protocol with noise on both maps, and the Khepera III emulator in lock-step
+time.
 
 Usage: python docs/results/robustness/measure.py OUT.json RUN_DIR [RUN_DIR ...]
 Every measure is seeded; the emulator runs on a virtual clock (exact 33 ms ticks), so results do not depend on
@@ -24,6 +25,7 @@ from mahn_evo.training.champion import Champion
 
 NOISY_EPISODES = 20
 SEQUENTIAL_EPISODES = 10
+SEQUENTIAL_MAPS = ("plus", "asymmetric_plus")
 EMULATOR_SEEDS = (0, 1, 2)
 
 
@@ -35,7 +37,7 @@ def measure(run: Path) -> dict:
     rough = evaluate_champion(champ, episodes=NOISY_EPISODES, params=noisy)
     margins = decision_margins(champ)
     policy = ControllerPolicy(champ.controllers, [f"robot_{k}" for k in range(champ.controllers.n_robots)])
-    seq = sequential(policy, map="plus", params=noisy, episodes=SEQUENTIAL_EPISODES)
+    seq = {m: sequential(policy, map=m, params=noisy, episodes=SEQUENTIAL_EPISODES) for m in SEQUENTIAL_MAPS}
     emulated = []
     for s in EMULATOR_SEEDS:
         res = deploy(path, emulate=True, emulator_seed=s, clock=VirtualClock(),
@@ -46,7 +48,9 @@ def measure(run: Path) -> dict:
             "noisy_solved_fraction": rough["solved_fraction"],
             "tied_fraction": margins["tied_fraction"], "near_tie_fraction": margins["near_tie_fraction"],
             "flipped_decisions": margins["flipped"],
-            "sequential_successes": sum(seq["solved"]), "sequential_episodes": SEQUENTIAL_EPISODES,
+            "decision": champ.controllers.decision,
+            "sequential_successes": sum(seq["plus"]["solved"]), "sequential_episodes": SEQUENTIAL_EPISODES,
+            "sequential_successes_by_map": {m: sum(seq[m]["solved"]) for m in SEQUENTIAL_MAPS},
             "emulator_fitness": emulated}
 
 
