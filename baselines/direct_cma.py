@@ -122,7 +122,7 @@ class DirectEncoding:
             else:
                 a = chunk.reshape((n,) + self.shapes[name])
             arrays[name] = a.astype(np.float32)
-        return TeamControllers(**arrays)
+        return TeamControllers(arrays["w_ih"], arrays["w_hh"], arrays["w_ho"], arrays["b_h"], arrays["b_o"])
 
 
 def _digest(es: Any) -> str:

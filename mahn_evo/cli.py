@@ -171,12 +171,16 @@ def _screen_parser(sub) -> None:
     p.add_argument("--baseline", required=True, help="the variant the others are tested against (a folder name)")
     p.add_argument("--mode", choices=MODES, default="situational", help="mode compared (default %(default)s)")
     p.add_argument("--out", type=Path, required=True, help="folder for screen.json, screen.md, survival.png")
+    p.add_argument("--generations", type=int,
+                   help="compare at this common budget (no larger than any variant's generation limit): runs that "
+                        "ran longer count as solved only by a solution within it (default: the variants' common "
+                        "limit)")
 
 
 def cmd_screen(args) -> int:
     from .experiment.screen import screen_markdown, write_screen
 
-    print(screen_markdown(write_screen(args.variants, args.baseline, args.out, args.mode)), end="")
+    print(screen_markdown(write_screen(args.variants, args.baseline, args.out, args.mode, args.generations)), end="")
     return 0
 
 

@@ -5,7 +5,7 @@ Files are JSON (human-readable, versioned) so a champion can be inspected, diffe
 """
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -79,29 +79,33 @@ class TeamControllers:
         """A batch of one team (no copy when already batched)."""
         if self.batched:
             return self
-        return TeamControllers(*(getattr(self, f)[None] for f in _FIELDS), decision=self.decision)
+        return self.map_arrays(lambda a: a[None])
+
+    def map_arrays(self, fn: Callable[[np.ndarray], np.ndarray]) -> TeamControllers:
+        """The controllers whose every array is fn(array), deciding by the same rule (slices, repeats, copies)."""
+        return TeamControllers(fn(self.w_ih), fn(self.w_hh), fn(self.w_ho), fn(self.b_h), fn(self.b_o), self.decision)
 
     def repeated(self, n: int) -> TeamControllers:
         """The batch's teams repeated n times along the batch axis (one team acting in n lock-step episodes)."""
-        b = self.as_batch()
-        return TeamControllers(*(np.repeat(getattr(b, f), int(n), axis=0) for f in _FIELDS), decision=self.decision)
+        return self.as_batch().map_arrays(lambda a: np.repeat(a, int(n), axis=0))
 
     def team(self, index: int) -> TeamControllers:
         if not self.batched:
             raise ValueError("team(index) needs a batch of teams")
-        return TeamControllers(*(getattr(self, f)[index] for f in _FIELDS), decision=self.decision)
+        return self.map_arrays(lambda a: a[index])
 
     def with_decision(self, decision: str) -> TeamControllers:
         """The same networks deciding by `decision` (core.controller.DECISIONS); the arrays are shared."""
-        return TeamControllers(*(getattr(self, f) for f in _FIELDS), decision=decision)
+        return TeamControllers(self.w_ih, self.w_hh, self.w_ho, self.b_h, self.b_o, decision)
 
     @staticmethod
     def stack(teams: list[TeamControllers]) -> TeamControllers:
+        """One batch of the teams (each (R, K, ...)), which must decide by one rule."""
         rules = {t.decision for t in teams}
         if len(rules) > 1:
             raise ValueError(f"cannot stack teams that decide by different rules {sorted(rules)}")
-        return TeamControllers(*(np.stack([getattr(t, f) for t in teams]) for f in _FIELDS),
-                               decision=rules.pop() if rules else "output")
+        w_ih, w_hh, w_ho, b_h, b_o = (np.stack([getattr(t, f) for t in teams]) for f in _FIELDS)
+        return TeamControllers(w_ih, w_hh, w_ho, b_h, b_o, rules.pop() if rules else "output")
 
     def to_dict(self) -> dict[str, Any]:
         """Plain JSON: nested lists of float32 values (exact through float64 JSON round trip)."""
@@ -131,4 +135,5 @@ class TeamControllers:
             if raw.dtype.kind not in "iuf":  # np.float32("1.5") would silently accept a string
                 raise TypeError(f"controllers: field {f!r} must hold numbers, got {raw.dtype.name} values")
             arrays.append(raw.astype(np.float32))
-        return cls(*arrays, decision=decision)
+        w_ih, w_hh, w_ho, b_h, b_o = arrays
+        return cls(w_ih, w_hh, w_ho, b_h, b_o, decision)

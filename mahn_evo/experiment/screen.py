@@ -18,27 +18,38 @@ from .plan import ExperimentPlan
 from .table import RunRecord, load_runs
 
 
-def _variant_runs(folder: Path, mode: str) -> tuple[ExperimentPlan, dict[int, RunRecord]]:
+def _variant_runs(folder: Path, mode: str, limit: int | None) -> tuple[ExperimentPlan, dict[int, RunRecord]]:
     plan = ExperimentPlan.load(folder)
-    return plan, {r.seed: r for r in load_runs(plan, folder) if r.mode == mode and r.finished}
+    runs = [r for r in load_runs(plan, folder) if r.mode == mode]
+    if limit is not None:
+        runs = [r.at_generation(limit) for r in runs]
+    return plan, {r.seed: r for r in runs if r.finished}
 
 
-def screen_results(folders: Sequence[str | Path], baseline: str, mode: str = "situational") -> dict[str, Any]:
+def screen_results(folders: Sequence[str | Path], baseline: str, mode: str = "situational",
+                   generations: int | None = None) -> dict[str, Any]:
     """Per variant (folder name): solved / runs on the common finished seeds, generations to solve, Fisher's exact
-    test against `baseline`, and the survival curve (fraction solved by each generation)."""
+    test against `baseline`, and the survival curve (fraction solved by each generation).
+
+    Variants must have run the same generation limit, or `generations` names a common budget no larger than
+    any variant's limit: every run is then read as if it had stopped there (`RunRecord.at_generation`), so a
+    300-generation screen can be compared with the first 300 generations of a full experiment."""
     from scipy.stats import fisher_exact
 
     paths = {Path(f).name: Path(f) for f in folders}
     if len(paths) != len(folders):
         raise ValueError("variant folders must have distinct names (the name is the variant's)")
-    variants = {name: _variant_runs(path, mode) for name, path in paths.items()}
+    variants = {name: _variant_runs(path, mode, generations) for name, path in paths.items()}
     if baseline not in variants:
         raise ValueError(f"baseline {baseline!r} is not one of the variants {sorted(variants)}")
-    generations = {plan.generations for plan, _ in variants.values()}
-    if len(generations) != 1:
-        raise ValueError(f"the variants ran different generation limits {sorted(generations)}; a screen compares "
-                         "equal budgets")
-    G = generations.pop()
+    limits = {plan.generations for plan, _ in variants.values()}
+    if generations is None and len(limits) != 1:
+        raise ValueError(f"the variants ran different generation limits {sorted(limits)}; a screen compares "
+                         "equal budgets (give a common budget no larger than the smallest limit)")
+    if generations is not None and not 1 <= generations <= min(limits):
+        raise ValueError(f"a common budget of {generations} generations is outside 1..{min(limits)}, the smallest "
+                         "limit the variants ran with")
+    G = generations if generations is not None else limits.pop()
     common = sorted(set.intersection(*(set(runs) for _, runs in variants.values())))
     base_runs = variants[baseline][1]
     base_solved = sum(base_runs[s].solved for s in common)
@@ -107,9 +118,9 @@ def survival_plot(res: dict[str, Any], path: str | Path) -> None:
 
 
 def write_screen(folders: Sequence[str | Path], baseline: str, out: str | Path,
-                 mode: str = "situational") -> dict[str, Any]:
-    """screen.json, screen.md and survival.png in `out`."""
-    res = screen_results(folders, baseline, mode)
+                 mode: str = "situational", generations: int | None = None) -> dict[str, Any]:
+    """screen.json, screen.md and survival.png in `out` (`generations`: see `screen_results`)."""
+    res = screen_results(folders, baseline, mode, generations)
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     atomic_write_json(out / "screen.json", res)

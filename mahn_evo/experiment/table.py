@@ -7,7 +7,7 @@ experiment is still running and is never biased by runs that simply have not had
 from __future__ import annotations
 
 import csv
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -43,6 +43,17 @@ class RunRecord:
     def generations_to_solve(self) -> int | None:
         """Generations evaluated up to and including the first solution (1-based, as the paper counts)."""
         return None if self.first_solved is None else self.first_solved + 1
+
+    def at_generation(self, limit: int) -> RunRecord:
+        """This run as if its limit had been `limit` generations (<= the limit it ran with): solved only by a
+        solution found within them, and the best fitness reached by then.  A run stopped earlier (at its first
+        solution) is unchanged; one still running counts as finished once it has run `limit` generations."""
+        if self.generations < limit or (self.generations == limit and self.finished):
+            return self
+        first = self.first_solved if self.first_solved is not None and self.first_solved < limit else None
+        best = float(self.best_ever[limit - 1]) if len(self.best_ever) >= limit else self.best_fitness
+        return replace(self, finished=True, generations=limit, solved=first is not None, first_solved=first,
+                       best_fitness=best, best_ever=self.best_ever[:limit])
 
     def to_dict(self) -> dict[str, Any]:
         return {"run": self.name, "mode": self.mode, "seed": self.seed, "finished": self.finished,

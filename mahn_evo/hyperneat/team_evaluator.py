@@ -160,8 +160,7 @@ class TeamEvaluator:
         ctrl = controllers.as_batch()
         first, index = distinct_teams(ctrl)
         if len(first) < ctrl.w_ih.shape[0]:
-            ctrl = TeamControllers(*(np.ascontiguousarray(getattr(ctrl, f)[first]) for f in CONTROLLER_FIELDS),
-                                   decision=ctrl.decision)
+            ctrl = ctrl.map_arrays(lambda a: np.ascontiguousarray(a[first]))
         n = ctrl.w_ih.shape[0]
         sim = self._sim(n)
         keys = self.episode_keys(generation)

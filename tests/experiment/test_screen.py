@@ -40,6 +40,35 @@ def test_screen_refuses_unequal_budgets_and_unknown_baselines(tmp_path):
         screen_results([tmp_path / "a", tmp_path / "b"], baseline="a")
     with pytest.raises(ValueError, match="baseline"):
         screen_results([tmp_path / "a"], baseline="c")
+    # a common budget no larger than either limit compares them; a larger one is refused
+    res = screen_results([tmp_path / "a", tmp_path / "b"], baseline="a", generations=2)
+    assert res["generations"] == 2 and res["seeds"] == [5]
+    assert [len(v["survival"]) for v in res["variants"].values()] == [2, 2]
+    b = res["variants"]["b"]["finished_runs"][0]
+    assert b["generations"] == 2  # read as if it had stopped at generation 2
+    with pytest.raises(ValueError, match="common budget of 3"):
+        screen_results([tmp_path / "a", tmp_path / "b"], baseline="a", generations=3)
+
+
+def test_a_run_read_at_a_smaller_budget_counts_only_what_it_found_within_it():
+    from pathlib import Path
+
+    import numpy as np
+
+    from mahn_evo.experiment.table import RunRecord
+
+    best = np.array([1.0, 2.0, 50.0, 60.0, 161.0, 161.0])
+    run = RunRecord(name="situational_s001", mode="situational", seed=1, folder=Path("."), finished=True,
+                    generations=6, solved=True, first_solved=4, best_fitness=161.0, wall_seconds=1.0, best_ever=best)
+    early = run.at_generation(4)
+    assert (early.solved, early.first_solved, early.best_fitness, early.generations) == (False, None, 60.0, 4)
+    assert run.at_generation(5).generations_to_solve == 5 and run.at_generation(5).solved
+    assert run.at_generation(6) is run and run.at_generation(100) is run
+    running = RunRecord(name="situational_s002", mode="situational", seed=2, folder=Path("."), finished=False,
+                        generations=3, solved=False, first_solved=None, best_fitness=2.0, wall_seconds=1.0,
+                        best_ever=best[:3])
+    assert running.at_generation(2).finished and running.at_generation(3).finished
+    assert not running.at_generation(4).finished
 
 
 def test_experiment_cli_takes_presets_and_robust_options(tmp_path):
@@ -54,3 +83,4 @@ def test_experiment_cli_takes_presets_and_robust_options(tmp_path):
     assert plan["neat"]["species_order"] == "random" and plan["neat"]["stagnation_rule"] == "sticky"
     cfg = json.loads((out / "runs" / "situational_s005" / "config.json").read_text())
     assert cfg["task"]["sensor_noise"] == 5.0 and cfg["noise_draws"] == "per_generation"
+    assert plan["decision"] == cfg["decision"] == "output"
