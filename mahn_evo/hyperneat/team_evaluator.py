@@ -6,7 +6,7 @@ frozen record, `EvaluationSettings`; a training run builds it from its configura
 """
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Hashable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -18,6 +18,8 @@ from mahn_envs.maps import load_map
 from mahn_envs.policies.team_controllers import TeamControllers
 
 from ..cppn import CPPN_ACTIVATIONS, compile_genome
+from ..neat.genome import Genome
+from .memo import GenerationMemo, genome_key
 from .substrate import MODES, decode_population
 
 #: How a team's fitness is taken from its episodes: "fixed" draws (episode keys 0..K-1 every generation) or fresh
@@ -92,17 +94,29 @@ class Evaluation:
 CONTROLLER_FIELDS = ("w_ih", "w_hh", "w_ho", "b_h", "b_o")
 
 
-def distinct_teams(ctrl: TeamControllers) -> tuple[np.ndarray, np.ndarray]:
-    """(first, index): `first` lists one team of each distinct set of controller arrays (in order of first
-    appearance) and team i equals team first[index[i]].  Teams are compared bit for bit (float32 patterns)."""
+def _rows(ctrl: TeamControllers, rows: np.ndarray) -> TeamControllers:
+    """The teams `rows` of a batch, as contiguous arrays for the kernel."""
+    return ctrl.map_arrays(lambda a: np.ascontiguousarray(a[rows]))
+
+
+def team_keys(ctrl: TeamControllers) -> list[bytes]:
+    """Per team of a batch, the bit pattern of its controller arrays (float32): equal keys, identical teams."""
     n = ctrl.w_ih.shape[0]
     rows = np.concatenate([np.ascontiguousarray(getattr(ctrl, f), dtype=np.float32).reshape(n, -1)
                            for f in CONTROLLER_FIELDS], axis=1)
+    return [rows[i].tobytes() for i in range(n)]
+
+
+def distinct_teams(ctrl: TeamControllers) -> tuple[np.ndarray, np.ndarray]:
+    """(first, index): `first` lists one team of each distinct set of controller arrays (in order of first
+    appearance) and team i equals team first[index[i]].  Teams are compared bit for bit (float32 patterns)."""
+    keys = team_keys(ctrl)
+    n = len(keys)
     seen: dict[bytes, int] = {}
     first: list[int] = []
     index = np.empty(n, dtype=np.int64)
     for i in range(n):
-        key = rows[i].tobytes()
+        key = keys[i]
         j = seen.get(key)
         if j is None:
             j = seen[key] = len(first)
@@ -128,11 +142,26 @@ class TeamEvaluator:
         self.world = load_map(settings.map)
         self._sims: dict[int, BatchSim] = {}
         self._clean_sims: dict[int, BatchSim] = {}
+        self._decoded: GenerationMemo[TeamControllers] = GenerationMemo()
+        self._scores: GenerationMemo[tuple[float, bool]] = GenerationMemo()
 
     def decode(self, genomes: Sequence) -> TeamControllers:
+        """The genomes' team controllers (a batch, in order).  A genome decoded by the previous call (an elite, a
+        duplicate) is not decoded again: decoding is a pure function of its genes (`memo`)."""
         s = self.settings
-        plans = [compile_genome(g, s.cppn_activation, s.evaluate_modules) for g in genomes]
-        return decode_population(plans, s.mode, self.world.n_robots).with_decision(s.decision)
+        self._decoded.next_generation()
+        keys = [genome_key(g) for g in genomes]
+        todo: dict[Hashable, Genome] = {}
+        for key, g in zip(keys, genomes):
+            if key not in todo and self._decoded.get(key) is None:
+                todo[key] = g
+        if todo:
+            plans = [compile_genome(g, s.cppn_activation, s.evaluate_modules) for g in todo.values()]
+            fresh = decode_population(plans, s.mode, self.world.n_robots)
+            for i, key in enumerate(todo):
+                self._decoded.put(key, fresh.team(i))
+        teams = [self._decoded.get(key) for key in keys]
+        return TeamControllers.stack([t for t in teams if t is not None]).with_decision(s.decision)
 
     def _sim(self, n: int) -> BatchSim:
         if n not in self._sims:
@@ -155,25 +184,40 @@ class TeamEvaluator:
 
         Teams whose controllers are identical (elites carried over, duplicate offspring, genomes that decode to
         the same weights) are run once: every team meets the same keyed episodes, so their results are equal.
+        An episode a team already played in the previous call (the same keyed episode: the noise-free one, or
+        every episode without fresh draws) is not played again (`memo`): an episode is a pure function of the
+        controllers, the seed and the key.
         """
         s = self.settings
         ctrl = controllers.as_batch()
         first, index = distinct_teams(ctrl)
         if len(first) < ctrl.w_ih.shape[0]:
-            ctrl = ctrl.map_arrays(lambda a: np.ascontiguousarray(a[first]))
+            ctrl = _rows(ctrl, first)
         n = ctrl.w_ih.shape[0]
-        sim = self._sim(n)
-        keys = self.episode_keys(generation)
-        fits = np.zeros((len(keys) + s.noise_free_episode, n))
-        solved = np.zeros(n)
-        for e, key in enumerate(keys):
-            res = sim.run_controllers(ctrl, seed=s.seed, episode_keys=np.full(n, key))
-            fits[e] = res.fitness
-            solved += res.solved
+        teams = team_keys(ctrl)
+        self._scores.next_generation()
+        episodes = [(False, key) for key in self.episode_keys(generation)]
         if s.noise_free_episode:
-            res = self._clean_sim(n).run_controllers(ctrl, seed=s.seed, episode_keys=np.zeros(n, dtype=np.int64))
-            fits[-1] = res.fitness
-            solved += res.solved
+            episodes.append((True, 0))
+        fits = np.zeros((len(episodes), n))
+        solved = np.zeros(n)
+        for e, (clean, key) in enumerate(episodes):
+            todo = []
+            for i, team in enumerate(teams):
+                known = self._scores.get((team, clean, key))
+                if known is None:
+                    todo.append(i)
+                else:
+                    fits[e, i], solved_e = known
+                    solved[i] += solved_e
+            if todo:
+                run = ctrl if len(todo) == n else _rows(ctrl, np.array(todo))
+                sim = self._clean_sim(len(todo)) if clean else self._sim(len(todo))
+                res = sim.run_controllers(run, seed=s.seed, episode_keys=np.full(len(todo), key, dtype=np.int64))
+                for j, i in enumerate(todo):
+                    fits[e, i] = res.fitness[j]
+                    solved[i] += res.solved[j]
+                    self._scores.put((teams[i], clean, key), (float(res.fitness[j]), bool(res.solved[j])))
         if s.aggregate == "min":
             fit = fits.min(axis=0)
         elif s.aggregate == "quantile":

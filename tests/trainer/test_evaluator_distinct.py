@@ -32,3 +32,43 @@ def test_score_runs_each_distinct_team_once_and_matches_scoring_them_apart():
         f, s = alone.score(_batch([t]))
         assert fit[i] == f[0] and solved[i] == s[0]
     assert fit[0] == fit[2] == fit[5] and fit[0] != fit[1]
+
+
+def test_a_generation_memo_remembers_only_the_last_generation():
+    from mahn_evo.hyperneat.memo import GenerationMemo
+
+    memo: GenerationMemo[int] = GenerationMemo()
+    memo.put("a", 1)
+    memo.next_generation()
+    memo.put("b", 2)
+    assert memo.get("a") == 1  # used again in this generation: kept for the next
+    memo.next_generation()
+    assert memo.get("a") == 1 and memo.get("b") == 2
+    memo.next_generation()
+    memo.next_generation()
+    assert memo.get("a") is None and len(memo) == 0
+
+
+def test_memos_give_the_results_of_a_fresh_evaluator_and_skip_known_work(tmp_path):
+    """Robust settings (fresh noisy draws each generation plus the noise-free episode) over generations whose
+    genomes repeat (elites, duplicates): the memoised evaluator plays the noise-free episode only for teams it has
+    not seen, and its controllers and scores equal those of a fresh evaluator bit for bit."""
+    from mahn_evo.training.config import EvolutionConfig
+    from mahn_evo.training.trainer import Trainer
+
+    params = TaskParams(max_cycles=240, signal_tick=120, sensor_noise=5.0, start_jitter_xy=2.0)
+    cfg = EvolutionConfig(episodes=2, noise_draws="per_generation", noise_free_episode=True, seed=4, task=params,
+                          cppn_activation="relax", generations=4).with_overrides(pop=30)
+    tr = Trainer(cfg, tmp_path / "run")
+    skipped = []
+    for gen in range(4):
+        genomes = tr.population.ask()
+        ev = tr.evaluator.evaluate(genomes, gen)
+        fresh = TeamEvaluator(cfg.evaluation).evaluate(genomes, gen)
+        assert np.array_equal(ev.fitness, fresh.fitness) and np.array_equal(ev.solved, fresh.solved)
+        assert all(np.array_equal(getattr(ev.controllers, f), getattr(fresh.controllers, f))
+                   for f in CONTROLLER_FIELDS)
+        played_clean = list(tr.evaluator._clean_sims)[0]  # the noise-free episode ran for this many teams
+        skipped.append(len(distinct_teams(ev.controllers)[0]) - played_clean)
+        tr.population.tell(ev.fitness)
+    assert skipped[0] == 0 and max(skipped[1:]) > 0  # elites' noise-free episodes were not played again
