@@ -1,17 +1,21 @@
 """A/B seconds per training generation: this checkout against a git revision, interleaved, in one run.
 
-The revision's `mahn_envs` and `mahn_evo` are unpacked (git archive) into a temporary folder.  One run folder is
-trained with this checkout up to --skip generations (so the timed generations are evolved, not random, teams),
-then worker processes alternate between the two versions (A B B A ...): each resumes a copy of that run folder
-and times --generations generations split into decode (NEAT ask + CPPN decoding), evaluate, reproduce (NEAT
-tell) and checkpoint, exactly as the trainer runs them.  Every worker must produce the same fitness values (the
-optimisations are required to be bit-identical); the comparison uses each version's fastest worker and prints
-the spread over workers, since the machine is shared.  NUMBA_NUM_THREADS sets the cores of each worker.
+The revision's `mahn_envs` and `mahn_evo` are unpacked (git archive) into a temporary folder. One run folder is
+trained with this checkout up to --skip generations (so the timed generations are evolved, not random, teams), then
+worker processes alternate between the two versions (A B B A ...): each resumes a copy of that run folder and,
+after one untimed generation, times --generations generations split into decode (NEAT ask + CPPN decoding),
+evaluate, reproduce (NEAT tell) and checkpoint, exactly as the trainer runs them. Every worker must produce the
+same fitness values (the optimisations are required to be bit-identical); the comparison uses each version's
+fastest worker and prints the spread over workers, since the machine is shared. NUMBA_NUM_THREADS sets the cores of
+each worker.
 
 Several revisions (--rev dafc457 5c94b5e) are measured in the same interleaved run, each beside the checkout.
+--run DIR times the generations after an existing run folder's checkpoint instead (e.g. generation 1000 of a
+paper-scale run, whose grown CPPNs cost more to decode than the early ones; the folder is copied, never changed).
 
 Usage: python benchmarks/bench_ab_generation.py [--rev dafc457 [REV ...]] [--pop 500 2000] [--threads 1 2]
        [--repeats 3] [--generations 4] [--skip 20] [--init iros2011] [--episodes 1] [--noise none|generalization]
+       [--run DIR]
 """
 from __future__ import annotations
 
@@ -49,7 +53,14 @@ with tempfile.TemporaryDirectory() as d:
     shutil.copytree(run_dir, d, dirs_exist_ok=True)
     cfg = EvolutionConfig.from_saved(read_versioned_json(f"{d}/config.json", "config"))
     tr = Trainer(cfg.with_overrides(generations=10**6), d, resume=True)
-    tr.evaluator.score(tr.evaluator.decode(tr.population.ask()[:4]))  # load the compiled code
+    def score(controllers):
+        try:  # the generation picks the episodes of per-generation noise draws, as in the trainer
+            return tr.evaluator.score(controllers, tr.population.generation)
+        except TypeError:  # a revision from before per-generation draws
+            return tr.evaluator.score(controllers)
+    # one untimed generation: loads the compiled code and, as in a running trainer, leaves the previous
+    # generation in the evaluator's memos (revisions that have them)
+    tr.population.tell(score(tr.evaluator.decode(tr.population.ask()))[0])
     parts = {"decode": [], "evaluate": [], "reproduce": [], "checkpoint": []}
     cpu = []
     digest = hashlib.sha256()
@@ -59,7 +70,7 @@ with tempfile.TemporaryDirectory() as d:
         genomes = tr.population.ask()
         controllers = tr.evaluator.decode(genomes)
         t1 = time.perf_counter()
-        fitness, solved = tr.evaluator.score(controllers)
+        fitness, solved = score(controllers)
         t2 = time.perf_counter()
         tr.population.tell(fitness)
         t3 = time.perf_counter()
@@ -97,6 +108,12 @@ def make_run(folder: str, pop: int, skip: int, init: str, episodes: int, noise: 
         tr.step()
     tr._write_log()
     tr._checkpoint()
+
+
+def run_population(run: str) -> int:
+    """The population size of an existing run folder (its config.json)."""
+    with open(os.path.join(run, "config.json")) as f:
+        return int(json.load(f)["neat"]["population_size"])
 
 
 def run_worker(code: str, run_dir: str, generations: int, threads: int) -> dict:
@@ -137,20 +154,26 @@ def main() -> None:
     ap.add_argument("--episodes", type=int, default=1)
     ap.add_argument("--noise", default="none", help="task noise preset of mahn_evo.evaluation.task_setup (none, "
                                                      "generalization)")
+    ap.add_argument("--run", help="time the generations after this run folder's checkpoint (its own settings; "
+                                   "--pop, --skip, --init, --episodes and --noise are not used)")
     args = ap.parse_args()
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         versions = {rev: unpack_revision(rev, os.path.join(tmp, f"rev{i}")) for i, rev in enumerate(args.rev)}
         versions["checkout"] = ROOT
-        for pop in args.pop:
+        for pop in ([run_population(args.run)] if args.run else args.pop):
             run_dir = os.path.join(tmp, f"run{pop}")
-            make_run(run_dir, pop, args.skip, args.init, args.episodes, args.noise)
+            if args.run:
+                shutil.copytree(args.run, run_dir, ignore=shutil.ignore_patterns(".mahn.lock", "archive", "*.png"))
+            else:
+                make_run(run_dir, pop, args.skip, args.init, args.episodes, args.noise)
             for threads in args.threads:
                 res = measure(versions, run_dir, args.generations, threads, args.repeats)
                 rows.append((pop, threads, res))
                 print_row(args, pop, threads, res)
             shutil.rmtree(run_dir)
-    print(f"\nsummary ({args.init}, episodes {args.episodes}, noise {args.noise}; seconds per generation, fastest "
+    what = f"run {args.run}" if args.run else f"{args.init}, episodes {args.episodes}, noise {args.noise}"
+    print(f"\nsummary ({what}; seconds per generation, fastest "
           f"worker, [spread over {args.repeats} workers]; load average {os.getloadavg()[0]:.1f}):")
     names = args.rev + ["checkout"]
     print(f"{'population':>10} {'threads':>7} " + " ".join(f"{k:>22}" for k in names)
@@ -168,7 +191,9 @@ def main() -> None:
 
 
 def print_row(args, pop: int, threads: int, res: dict) -> None:
-    print(f"population {pop}, {threads} thread(s), generations {args.skip}..{args.skip + args.generations - 1}, "
+    timed = (f"{args.generations} generations after {args.run}" if args.run
+             else f"generations {args.skip}..{args.skip + args.generations - 1}")
+    print(f"population {pop}, {threads} thread(s), {timed}, "
           "fitness identical in every worker")
     for k, r in res.items():
         parts = "  ".join(f"{p} {v:.3f}" for p, v in r["parts"].items())
