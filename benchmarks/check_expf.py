@@ -1,8 +1,10 @@
 """Exhaustive check: mahn_envs.core.expf against the C library's expf for every one of the 2^32 float32.
 
-Checks the inlined `expf` against the library's, and the 8-lane `sigmoid_8` against the scalar sigmoid
-formula with the library's expf.  Evolution runs stay bit-identical only if they return the library's numbers.
-Runs a few minutes on one core; prints the number of differing inputs (must be 0 for both).
+Checks the inlined `expf` against the library's, the 8-lane `sigmoid_8` against the scalar sigmoid formula with the
+library's expf, and the CPPN relaxation's vector activations (bipolar sigmoid, gaussian, sigmoid: `expf_ir` in 64
+lanes, mahn_evo.cppn.relax) against their scalar formulas with the library's expf.  Evolution runs stay
+bit-identical only if they return the library's numbers.  Runs a few minutes per check on one core; prints the
+number of differing inputs (must be 0 for every check).
 Usage: python benchmarks/check_expf.py [--chunk-bits 24]
 """
 from __future__ import annotations
@@ -16,7 +18,51 @@ import numpy as np
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
 
-from mahn_envs.core.expf import expf_array, libm_expf_array, libm_sigmoid_array, sigmoid_8_array  # noqa: E402
+import math  # noqa: E402
+
+from numba import njit  # noqa: E402
+
+from mahn_envs.core.expf import TABLE, expf_array, libm_expf_array, libm_sigmoid_array, sigmoid_8_array  # noqa: E402
+from mahn_evo.cppn.relax import LANES, _activate, _bipolar_lanes, _gaussian_lanes, _sigmoid_lanes  # noqa: E402
+
+
+@njit(cache=True, error_model="numpy")
+def _lanes_array(code, x, out):
+    """out = the CPPN activation `code` of x through the relaxation's vector intrinsics, LANES at a time."""
+    block = x.reshape(-1, LANES).copy()
+    for i in range(block.shape[0]):
+        if code == 0:
+            _bipolar_lanes(block, i * LANES, TABLE)
+        elif code == 1:
+            _gaussian_lanes(block, i * LANES, TABLE)
+        else:
+            _sigmoid_lanes(block, i * LANES, TABLE)
+    out[:] = block.reshape(-1)
+
+
+@njit(cache=True, error_model="numpy")
+def _libm_activation_array(code, x, out):
+    """out = the CPPN activation `code` of x by its scalar formula with the C library's expf (math.exp)."""
+    f = np.float32
+    for i in range(x.shape[0]):
+        if code == 0:
+            out[i] = f(2.0) / (f(1.0) + f(math.exp(f(-4.9) * x[i]))) - f(1.0)
+        elif code == 1:
+            y = f(2.5) * x[i]
+            out[i] = f(2.0) * f(math.exp(-(y * y))) - f(1.0)
+        else:
+            out[i] = f(1.0) / (f(1.0) + f(math.exp(f(-4.9) * x[i])))
+
+
+@njit(cache=True, error_model="numpy")
+def _scalar_activation_array(code, x, out):
+    """out = `_activate(code, x)`, the relaxation's scalar activation (the inlined expf)."""
+    for i in range(x.shape[0]):
+        out[i] = _activate(code, x[i])
+
+
+def _check_cppn(code: int):
+    return (lambda x, out: _lanes_array(code, x, out)), (lambda x, out: _libm_activation_array(code, x, out))
 
 
 def main() -> None:
@@ -24,8 +70,10 @@ def main() -> None:
     ap.add_argument("--chunk-bits", type=int, default=24)
     args = ap.parse_args()
     n = 1 << args.chunk_bits
-    for name, ours_fn, lib_fn in (("expf", expf_array, libm_expf_array),
-                                  ("sigmoid_8", sigmoid_8_array, libm_sigmoid_array)):
+    checks = [("expf", expf_array, libm_expf_array), ("sigmoid_8", sigmoid_8_array, libm_sigmoid_array)]
+    checks += [(f"CPPN {name} lanes", *_check_cppn(code))
+               for code, name in ((0, "bipolar sigmoid"), (1, "gaussian"), (7, "sigmoid"))]
+    for name, ours_fn, lib_fn in checks:
         ours = np.empty(n, dtype=np.float32)
         lib = np.empty(n, dtype=np.float32)
         bad = 0

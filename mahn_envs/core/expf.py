@@ -172,19 +172,28 @@ def sigmoid_8(typingctx, dst, dst_at, src, src_at, bias, bias_at, table):
 
 
 def sigmoid_ir(builder: ir.IRBuilder, x: ir.Value, p_tab: ir.Value) -> ir.Value:
-    """LLVM IR of the network's sigmoid 1/(1 + expf(-4.9 x)) for a float32 vector x of any width, lane by lane:
-    `expf` above in double precision (the same IEEE operations and fused multiply-adds per lane, the table
-    read per lane) with the library's special cases as selects.  `p_tab` points to TABLE.  The one vector
-    definition of the sigmoid (`sigmoid_8`, the controller's network)."""
+    """LLVM IR of the network's sigmoid 1/(1 + expf(-4.9 x)) for a float32 vector x of any width, lane by lane
+    (`expf_ir`).  `p_tab` points to TABLE.  The one vector definition of the sigmoid (`sigmoid_8`, the
+    controller's network)."""
+    vf = x.type
+    e = expf_ir(builder, builder.fmul(ir.Constant(vf, [float(-SIGMOID_SLOPE32)] * vf.count), x), p_tab)
+    one = ir.Constant(vf, [1.0] * vf.count)
+    return builder.fdiv(one, builder.fadd(one, e))
+
+
+def expf_ir(builder: ir.IRBuilder, v: ir.Value, p_tab: ir.Value) -> ir.Value:
+    """LLVM IR of `expf` for a float32 vector v of any width, lane by lane: the same double-precision IEEE
+    operations and fused multiply-adds per lane, the table read per lane, the library's special cases as
+    selects.  `p_tab` points to TABLE.  benchmarks/check_expf.py compares it with the library for every
+    float32."""
     f32, f64, i64, i32 = ir.FloatType(), ir.DoubleType(), ir.IntType(64), ir.IntType(32)
-    width = x.type.count
+    width = v.type.count
     vf, vd, vi = ir.VectorType(f32, width), ir.VectorType(f64, width), ir.VectorType(i64, width)
 
     def splat(ty, value):
         return ir.Constant(ty, [value] * width)
 
     fma = cgutils.get_or_insert_function(builder.module, ir.FunctionType(vd, [vd, vd, vd]), f"llvm.fma.v{width}f64")
-    v = builder.fmul(splat(vf, float(-SIGMOID_SLOPE32)), x)
     xd = builder.fpext(v, vd)
     kd = builder.call(fma, [splat(vd, INV_LN2_N), xd, splat(vd, SHIFT)])
     ki = builder.bitcast(kd, vi)
@@ -206,5 +215,4 @@ def sigmoid_ir(builder: ir.IRBuilder, x: ir.Value, p_tab: ir.Value) -> ir.Value:
     e = builder.select(builder.fcmp_ordered("<", v, splat(vf, float(MAY_UNDERFLOW))), splat(vf, float(TINY)), e)
     e = builder.select(builder.fcmp_ordered("<", v, splat(vf, float(UNDERFLOW))), splat(vf, 0.0), e)
     e = builder.select(builder.fcmp_ordered(">", v, splat(vf, float(OVERFLOW))), splat(vf, math.inf), e)
-    e = builder.select(builder.fcmp_unordered("uno", v, v), builder.fadd(v, v), e)
-    return builder.fdiv(splat(vf, 1.0), builder.fadd(splat(vf, 1.0), e))
+    return builder.select(builder.fcmp_unordered("uno", v, v), builder.fadd(v, v), e)

@@ -25,8 +25,11 @@ from typing import TYPE_CHECKING
 
 import numba
 import numpy as np
+from llvmlite import ir
+from numba import types
+from numba.extending import intrinsic
 
-from mahn_envs.core.expf import expf
+from mahn_envs.core.expf import TABLE, expf, expf_ir, sigmoid_ir
 
 from .activations import activation_code
 
@@ -68,6 +71,51 @@ def _activate(code: int, x: np.float32) -> np.float32:
 LANES = 64
 
 
+def _exp_lanes(kind: str):
+    """An intrinsic f(new, at, table) that applies activation `kind` to the LANES float32 values new[at:at+LANES]
+    (element offset in the C-contiguous array) as one vector: the operations of `_activate` for that code, in
+    its order, with `expf` as `expf_ir` (the same IEEE operations per lane), so every lane is bit-identical to
+    the scalar loop.  The compiler cannot vectorise the scalar expf (its special cases branch), and these
+    activations are most of the relaxation's time."""
+
+    def impl(typingctx, new, at, table):
+        if not (isinstance(new, types.Array) and new.dtype == types.float32 and new.layout == "C"
+                and isinstance(table, types.Array) and table.dtype == types.uint64):
+            return None
+
+        def codegen(context, builder, signature, args):
+            vf = ir.VectorType(ir.FloatType(), LANES)
+            p_new = context.make_array(signature.args[0])(context, builder, args[0]).data
+            p_tab = context.make_array(signature.args[2])(context, builder, args[2]).data
+            ptr = builder.bitcast(builder.gep(p_new, [args[1]], inbounds=True), vf.as_pointer())
+            x = builder.load(ptr, align=4)
+
+            def splat(value):
+                return ir.Constant(vf, [value] * LANES)
+
+            if kind == "bipolar":  # 2 / (1 + expf(-4.9 x)) - 1
+                e = expf_ir(builder, builder.fmul(splat(float(_F(-4.9))), x), p_tab)
+                y = builder.fsub(builder.fdiv(splat(2.0), builder.fadd(splat(1.0), e)), splat(1.0))
+            elif kind == "gaussian":  # 2 expf(-(2.5 x)^2) - 1
+                z = builder.fmul(splat(2.5), x)
+                e = expf_ir(builder, builder.fneg(builder.fmul(z, z)), p_tab)
+                y = builder.fsub(builder.fmul(splat(2.0), e), splat(1.0))
+            else:  # sigmoid: 1 / (1 + expf(-4.9 x))
+                y = sigmoid_ir(builder, x, p_tab)
+            builder.store(y, ptr, align=4)
+            return context.get_dummy_value()
+
+        return types.void(new, types.intp, table), codegen
+
+    impl.__name__ = f"_{kind}_lanes"
+    return intrinsic(impl)
+
+
+_bipolar_lanes = _exp_lanes("bipolar")
+_gaussian_lanes = _exp_lanes("gaussian")
+_sigmoid_lanes = _exp_lanes("sigmoid")
+
+
 @numba.njit(cache=True)
 def _relax(queries, n_in, act, csrc, cdst, cw, mod_ptr, mod_in, mod_out, out_idx, steps):  # pragma: no cover
     """Relax every query; queries run in blocks of LANES side by side.
@@ -102,8 +150,15 @@ def _relax(queries, n_in, act, csrc, cdst, cw, mod_ptr, mod_in, mod_out, out_idx
                     new[d, k] += sig[s, k] * wc
             for i in range(first, n):
                 code = act[i]
-                for k in range(LANES):
-                    new[i, k] = _activate(code, new[i, k])
+                if code == 0:
+                    _bipolar_lanes(new, i * LANES, TABLE)
+                elif code == 1:
+                    _gaussian_lanes(new, i * LANES, TABLE)
+                elif code == 7:
+                    _sigmoid_lanes(new, i * LANES, TABLE)
+                else:
+                    for k in range(LANES):
+                        new[i, k] = _activate(code, new[i, k])
             for m in range(mod_ptr.shape[0] - 1):
                 o = mod_out[m]
                 for k in range(LANES):

@@ -225,3 +225,42 @@ def test_cli_preset_reaches_the_run_config(tmp_path):
     # the code-faithful start: every initial team is the all-forward team (modules dead, x1/x2/z inert)
     first = (out / "log.csv").read_text().splitlines()[1].split(",")
     assert float(first[2]) == pytest.approx(2.0232671157474, abs=1e-9) == float(first[3])
+
+
+def test_the_relaxations_vector_activations_are_the_scalar_ones_bit_for_bit():
+    """Bipolar sigmoid, gaussian and sigmoid run as 64-lane vectors in the relaxation (`expf_ir`); on a million
+    random float32 bit patterns and the special values they equal `_activate` bit for bit (NaN stays NaN).
+    benchmarks/check_expf.py checks every float32."""
+    from numba import njit
+
+    from mahn_envs.core.expf import TABLE
+    from mahn_evo.cppn.relax import LANES, _activate, _bipolar_lanes, _gaussian_lanes, _sigmoid_lanes
+
+    @njit
+    def vector(code, x):
+        block = x.reshape(-1, LANES).copy()
+        for i in range(block.shape[0]):
+            if code == 0:
+                _bipolar_lanes(block, i * LANES, TABLE)
+            elif code == 1:
+                _gaussian_lanes(block, i * LANES, TABLE)
+            else:
+                _sigmoid_lanes(block, i * LANES, TABLE)
+        return block.reshape(-1)
+
+    @njit
+    def scalar(code, x):
+        out = np.empty_like(x)
+        for i in range(x.shape[0]):
+            out[i] = _activate(code, x[i])
+        return out
+
+    rng = np.random.default_rng(0)
+    special = np.array([0.0, -0.0, np.inf, -np.inf, np.nan, 1e-45, -1e-45, 88.0, -88.0, -103.3, -104.0, 3.4e38,
+                        -3.4e38, 17.8, -17.8, 1.0], dtype=np.float32)
+    x = np.concatenate([rng.integers(0, 2**32, 2**20, dtype=np.uint64).astype(np.uint32).view(np.float32),
+                        np.tile(special, LANES // special.size)])
+    for code in (0, 1, 7):
+        a, b = vector(code, x), scalar(code, x)
+        same = (a.view(np.uint32) == b.view(np.uint32)) | (np.isnan(a) & np.isnan(b))
+        assert same.all(), (code, x[~same][:5])
