@@ -1,10 +1,11 @@
 """Exhaustive check: mahn_envs.core.expf against the C library's expf for every one of the 2^32 float32.
 
 Checks the inlined `expf` against the library's, the 8-lane `sigmoid_8` against the scalar sigmoid formula with the
-library's expf, and the CPPN relaxation's vector activations (bipolar sigmoid, gaussian, sigmoid: `expf_ir` in 64
-lanes, mahn_evo.cppn.relax) against their scalar formulas with the library's expf.  Evolution runs stay
-bit-identical only if they return the library's numbers.  Runs a few minutes per check on one core; prints the
-number of differing inputs (must be 0 for every check).
+library's expf, and the CPPN relaxation's vector activations (mahn_evo.cppn.relax: bipolar sigmoid, gaussian and
+sigmoid through `expf_ir` in 64 lanes; sin(2x) through `sinf.sin2x_ir` where |2x| < 120) against their scalar
+formulas with the library's expf and sinf.  Evolution runs stay bit-identical only if they return the library's
+numbers.  Runs a few minutes per check on one core; prints the number of differing inputs (must be 0 for every
+check).
 Usage: python benchmarks/check_expf.py [--chunk-bits 24]
 """
 from __future__ import annotations
@@ -23,7 +24,14 @@ import math  # noqa: E402
 from numba import njit  # noqa: E402
 
 from mahn_envs.core.expf import TABLE, expf_array, libm_expf_array, libm_sigmoid_array, sigmoid_8_array  # noqa: E402
-from mahn_evo.cppn.relax import LANES, _activate, _bipolar_lanes, _gaussian_lanes, _sigmoid_lanes  # noqa: E402
+from mahn_evo.cppn.relax import (  # noqa: E402
+    LANES,
+    _activate,
+    _bipolar_lanes,
+    _gaussian_lanes,
+    _sigmoid_lanes,
+    _sine_row,
+)
 
 
 @njit(cache=True, error_model="numpy")
@@ -35,6 +43,8 @@ def _lanes_array(code, x, out):
             _bipolar_lanes(block, i * LANES, TABLE)
         elif code == 1:
             _gaussian_lanes(block, i * LANES, TABLE)
+        elif code == 3:
+            _sine_row(block, i)
         else:
             _sigmoid_lanes(block, i * LANES, TABLE)
     out[:] = block.reshape(-1)
@@ -50,6 +60,8 @@ def _libm_activation_array(code, x, out):
         elif code == 1:
             y = f(2.5) * x[i]
             out[i] = f(2.0) * f(math.exp(-(y * y))) - f(1.0)
+        elif code == 3:
+            out[i] = f(math.sin(f(2.0) * x[i]))  # the library's sinf
         else:
             out[i] = f(1.0) / (f(1.0) + f(math.exp(f(-4.9) * x[i])))
 
@@ -72,7 +84,7 @@ def main() -> None:
     n = 1 << args.chunk_bits
     checks = [("expf", expf_array, libm_expf_array), ("sigmoid_8", sigmoid_8_array, libm_sigmoid_array)]
     checks += [(f"CPPN {name} lanes", *_check_cppn(code))
-               for code, name in ((0, "bipolar sigmoid"), (1, "gaussian"), (7, "sigmoid"))]
+               for code, name in ((0, "bipolar sigmoid"), (1, "gaussian"), (3, "sine"), (7, "sigmoid"))]
     for name, ours_fn, lib_fn in checks:
         ours = np.empty(n, dtype=np.float32)
         lib = np.empty(n, dtype=np.float32)

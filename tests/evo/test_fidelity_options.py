@@ -228,13 +228,15 @@ def test_cli_preset_reaches_the_run_config(tmp_path):
 
 
 def test_the_relaxations_vector_activations_are_the_scalar_ones_bit_for_bit():
-    """Bipolar sigmoid, gaussian and sigmoid run as 64-lane vectors in the relaxation (`expf_ir`); on a million
-    random float32 bit patterns and the special values they equal `_activate` bit for bit (NaN stays NaN).
-    benchmarks/check_expf.py checks every float32."""
+    """Bipolar sigmoid, gaussian and sigmoid run as 64-lane vectors in the relaxation (`expf_ir`), and sin(2x)
+    as glibc's sinf in vector form (`sinf.sin2x_ir`; rows with an argument beyond +-120 go through the library):
+    on a million random float32 bit patterns, a million CPPN-sized values, the points around multiples of pi/8
+    (where the sine's reduction changes quadrant) and the special values they equal `_activate` bit for bit
+    (NaN stays NaN).  benchmarks/check_expf.py checks every float32."""
     from numba import njit
 
     from mahn_envs.core.expf import TABLE
-    from mahn_evo.cppn.relax import LANES, _activate, _bipolar_lanes, _gaussian_lanes, _sigmoid_lanes
+    from mahn_evo.cppn.relax import LANES, _activate, _bipolar_lanes, _gaussian_lanes, _sigmoid_lanes, _sine_row
 
     @njit
     def vector(code, x):
@@ -244,6 +246,8 @@ def test_the_relaxations_vector_activations_are_the_scalar_ones_bit_for_bit():
                 _bipolar_lanes(block, i * LANES, TABLE)
             elif code == 1:
                 _gaussian_lanes(block, i * LANES, TABLE)
+            elif code == 3:
+                _sine_row(block, i)
             else:
                 _sigmoid_lanes(block, i * LANES, TABLE)
         return block.reshape(-1)
@@ -258,9 +262,12 @@ def test_the_relaxations_vector_activations_are_the_scalar_ones_bit_for_bit():
     rng = np.random.default_rng(0)
     special = np.array([0.0, -0.0, np.inf, -np.inf, np.nan, 1e-45, -1e-45, 88.0, -88.0, -103.3, -104.0, 3.4e38,
                         -3.4e38, 17.8, -17.8, 1.0], dtype=np.float32)
+    quadrants = (np.arange(-96, 96) * np.pi / 16).astype(np.float32)
     x = np.concatenate([rng.integers(0, 2**32, 2**20, dtype=np.uint64).astype(np.uint32).view(np.float32),
-                        np.tile(special, LANES // special.size)])
-    for code in (0, 1, 7):
+                        rng.uniform(-60, 60, 2**20).astype(np.float32), np.tile(special, LANES // special.size),
+                        quadrants, np.nextafter(quadrants, np.float32(np.inf)),
+                        np.nextafter(quadrants, np.float32(-np.inf))])
+    for code in (0, 1, 3, 7):
         a, b = vector(code, x), scalar(code, x)
         same = (a.view(np.uint32) == b.view(np.uint32)) | (np.isnan(a) & np.isnan(b))
         assert same.all(), (code, x[~same][:5])
