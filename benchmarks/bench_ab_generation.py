@@ -1,13 +1,15 @@
 """A/B seconds per training generation: this checkout against a git revision, interleaved, in one run.
 
-The revision's `mahn_envs` and `mahn_evo` are unpacked (git archive) into a temporary folder. One run folder is
-trained with this checkout up to --skip generations (so the timed generations are evolved, not random, teams), then
-worker processes alternate between the two versions (A B B A ...): each resumes a copy of that run folder and,
-after one untimed generation, times --generations generations split into decode (NEAT ask + CPPN decoding),
-evaluate, reproduce (NEAT tell) and checkpoint, exactly as the trainer runs them. Every worker must produce the
-same fitness values (the optimisations are required to be bit-identical); the comparison uses each version's
-fastest worker and prints the spread over workers, since the machine is shared. NUMBA_NUM_THREADS sets the cores of
-each worker.
+The revision's `mahn_envs` and `mahn_evo` are unpacked (git archive) into a temporary folder, and every module a
+worker loads must come from its version's folder (an editable install would otherwise fill modules an old layout
+lacks with this checkout's).  Each version trains its own run folder (the same generations from the same seed,
+since an old revision cannot read a newer format) up to --skip generations, so the timed generations are evolved,
+not random, teams.  Then worker processes alternate between the versions (A B B A ...): each resumes a copy of its
+version's run folder and, after one untimed generation, times --generations generations split into decode (NEAT
+ask + CPPN decoding), evaluate, reproduce (NEAT tell) and checkpoint, exactly as the trainer runs them.  Every
+worker must produce the same fitness values (the optimisations are required to be bit-identical); the comparison
+uses each version's fastest worker and prints the spread over workers, since the machine is shared.
+NUMBA_NUM_THREADS sets the cores of each worker.
 
 Several revisions (--rev dafc457 5c94b5e) are measured in the same interleaved run, each beside the checkout.
 --run DIR times the generations after an existing run folder's checkpoint instead (e.g. generation 1000 of a
@@ -33,22 +35,58 @@ import numpy as np
 
 ROOT = os.path.abspath(os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
 
-# Runs inside a worker process, with the version's folder first on sys.path.
-WORKER = r"""
-import hashlib, json, shutil, sys, tempfile, time
-code, run_dir, n_gen = sys.argv[1], sys.argv[2], int(sys.argv[3])
+# The start of both worker scripts: the version's own modules (folder `code`), whatever the layout of its time.
+PRELUDE = r"""
+import hashlib, importlib, json, os, shutil, sys, tempfile, time
+code = sys.argv[1]
+# An editable install's finder would fill modules missing from the revision with this checkout's: drop it, so
+# every module comes from `code` (checked below).
+sys.meta_path = [f for f in sys.meta_path if "editable" not in getattr(f, "__name__", type(f).__name__).lower()]
 sys.path.insert(0, code)
 import numpy as np
 import mahn_evo
 assert mahn_evo.__file__.startswith(code), (mahn_evo.__file__, code)
-try:  # the layout since issue 13 (mahn_evo/training/, mahn_evo/storage/)
-    from mahn_evo.storage.files import read_versioned_json
-    from mahn_evo.training.config import EvolutionConfig
-    from mahn_evo.training.trainer import Trainer
-except ModuleNotFoundError:  # a revision from before it: the same modules at the top of mahn_evo/
-    from mahn_evo.config import EvolutionConfig
-    from mahn_evo.files import read_versioned_json
-    from mahn_evo.trainer import Trainer
+
+
+def first(*names):
+    # the first of the module:attribute names that this version has
+    for name in names:
+        module, attr = name.split(":")
+        if os.path.exists(os.path.join(code, *module.split("."))) or \
+                os.path.exists(os.path.join(code, *module.split(".")) + ".py"):
+            mod = importlib.import_module(module)
+            if hasattr(mod, attr):
+                return getattr(mod, attr)
+    raise SystemExit(f"none of {names} in {code}")
+
+
+Config = first("mahn_evo.training.config:EvolutionConfig", "mahn_evo.config:EvolutionConfig",
+               "mahn_evo.config:TrainConfig")
+read_versioned_json = first("mahn_evo.storage.files:read_versioned_json", "mahn_evo.files:read_versioned_json")
+Trainer = first("mahn_evo.training.trainer:Trainer", "mahn_evo.trainer:Trainer")
+task_params = first("mahn_evo.evaluation.task_setup:task_params", "mahn_evo.task_setup:task_params",
+                    "mahn_evo.evaluate:task_params")
+loaded = [m.__file__ for name, m in list(sys.modules.items())
+          if name.split(".")[0] in ("mahn_evo", "mahn_envs") and getattr(m, "__file__", None)]
+assert all(f.startswith(code) for f in loaded), [f for f in loaded if not f.startswith(code)]
+"""
+
+# Trains the starting run folder with the version's own code (an old revision cannot read a newer run folder).
+MAKE_RUN = PRELUDE + r"""
+folder, pop, skip, init, episodes, noise = sys.argv[2], int(sys.argv[3]), int(sys.argv[4]), sys.argv[5], \
+    int(sys.argv[6]), sys.argv[7]
+cfg = Config(init=init, episodes=episodes, generations=max(skip, 1), task=task_params(noise)).with_overrides(pop=pop)
+tr = Trainer(cfg, folder)
+for _ in range(skip):
+    tr.step()
+tr._write_log()
+tr._checkpoint()
+"""
+
+# Runs inside a worker process, with the version's folder first on sys.path.
+WORKER = PRELUDE + r"""
+run_dir, n_gen = sys.argv[2], int(sys.argv[3])
+EvolutionConfig = Config
 with tempfile.TemporaryDirectory() as d:
     shutil.copytree(run_dir, d, dirs_exist_ok=True)
     cfg = EvolutionConfig.from_saved(read_versioned_json(f"{d}/config.json", "config"))
@@ -94,20 +132,12 @@ def unpack_revision(rev: str, into: str) -> str:
     return into
 
 
-def make_run(folder: str, pop: int, skip: int, init: str, episodes: int, noise: str) -> None:
-    """Train `skip` generations with this checkout into `folder` (the starting point of every worker)."""
-    sys.path.insert(0, ROOT)
-    from mahn_evo.evaluation.task_setup import task_params
-    from mahn_evo.training.config import EvolutionConfig
-    from mahn_evo.training.trainer import Trainer
-
-    cfg = EvolutionConfig(init=init, episodes=episodes, generations=max(skip, 1),
-                      task=task_params(noise)).with_overrides(pop=pop)
-    tr = Trainer(cfg, folder)
-    for _ in range(skip):
-        tr.step()
-    tr._write_log()
-    tr._checkpoint()
+def make_run(code: str, folder: str, pop: int, skip: int, init: str, episodes: int, noise: str) -> None:
+    """Train `skip` generations with the version in `code` into `folder` (the starting point of its workers;
+    every version trains the same generations from the same seed, bit for bit)."""
+    env = dict(os.environ, OMP_NUM_THREADS="1", OPENBLAS_NUM_THREADS="1")
+    subprocess.run([sys.executable, "-c", MAKE_RUN, code, folder, str(pop), str(skip), init, str(episodes), noise],
+                   env=env, check=True, cwd=code)
 
 
 def run_population(run: str) -> int:
@@ -118,18 +148,21 @@ def run_population(run: str) -> int:
 
 def run_worker(code: str, run_dir: str, generations: int, threads: int) -> dict:
     env = dict(os.environ, NUMBA_NUM_THREADS=str(threads), OMP_NUM_THREADS="1", OPENBLAS_NUM_THREADS="1")
-    out = subprocess.run([sys.executable, "-c", WORKER, code, run_dir, str(generations)], env=env, check=True,
+    out = subprocess.run([sys.executable, "-c", WORKER, code, run_dir, str(generations)], env=env,
                          capture_output=True, text=True, cwd=code)
+    if out.returncode:
+        raise SystemExit(f"the worker of {code} failed:\n{out.stderr[-3000:]}")
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 
-def measure(versions: dict[str, str], run_dir: str, generations: int, threads: int, repeats: int) -> dict:
+def measure(versions: dict[str, str], run_dirs: dict[str, str], generations: int, threads: int,
+            repeats: int) -> dict:
     """Per version: seconds per generation of each worker (mean over its generations) and its parts."""
     names = list(versions)
     got: dict[str, list[dict]] = {k: [] for k in names}
     for i in range(repeats):
         for k in (names if i % 2 == 0 else names[::-1]):
-            got[k].append(run_worker(versions[k], run_dir, generations, threads))
+            got[k].append(run_worker(versions[k], run_dirs[k], generations, threads))
     digests = {w["digest"] for ws in got.values() for w in ws}
     if len(digests) != 1:
         raise SystemExit(f"fitness differs between versions or workers ({len(digests)} different results)")
@@ -162,16 +195,19 @@ def main() -> None:
         versions = {rev: unpack_revision(rev, os.path.join(tmp, f"rev{i}")) for i, rev in enumerate(args.rev)}
         versions["checkout"] = ROOT
         for pop in ([run_population(args.run)] if args.run else args.pop):
-            run_dir = os.path.join(tmp, f"run{pop}")
-            if args.run:
-                shutil.copytree(args.run, run_dir, ignore=shutil.ignore_patterns(".mahn.lock", "archive", "*.png"))
-            else:
-                make_run(run_dir, pop, args.skip, args.init, args.episodes, args.noise)
+            run_dirs = {k: os.path.join(tmp, f"run{pop}_{i}") for i, k in enumerate(versions)}
+            for k, run_dir in run_dirs.items():
+                if args.run:  # every version resumes the same folder (the versions must read its format)
+                    shutil.copytree(args.run, run_dir, ignore=shutil.ignore_patterns(".mahn.lock", "archive",
+                                                                                     "*.png"))
+                else:
+                    make_run(versions[k], run_dir, pop, args.skip, args.init, args.episodes, args.noise)
             for threads in args.threads:
-                res = measure(versions, run_dir, args.generations, threads, args.repeats)
+                res = measure(versions, run_dirs, args.generations, threads, args.repeats)
                 rows.append((pop, threads, res))
                 print_row(args, pop, threads, res)
-            shutil.rmtree(run_dir)
+            for run_dir in run_dirs.values():
+                shutil.rmtree(run_dir)
     what = f"run {args.run}" if args.run else f"{args.init}, episodes {args.episodes}, noise {args.noise}"
     print(f"\nsummary ({what}; seconds per generation, fastest "
           f"worker, [spread over {args.repeats} workers]; load average {os.getloadavg()[0]:.1f}):")
