@@ -23,15 +23,8 @@ import math  # noqa: E402
 
 from numba import njit  # noqa: E402
 
-from mahn_envs.core.expf import TABLE, expf_array, libm_expf_array, libm_sigmoid_array, sigmoid_8_array  # noqa: E402
-from mahn_evo.cppn.relax import (  # noqa: E402
-    LANES,
-    _activate,
-    _bipolar_lanes,
-    _gaussian_lanes,
-    _sigmoid_lanes,
-    _sine_row,
-)
+from mahn_envs.core.expf import expf_array, libm_expf_array, libm_sigmoid_array, sigmoid_8_array  # noqa: E402
+from mahn_evo.cppn.relax import LANES, _activate, activate_row  # noqa: E402
 
 
 @njit(cache=True, error_model="numpy")
@@ -39,14 +32,7 @@ def _lanes_array(code, x, out):
     """out = the CPPN activation `code` of x through the relaxation's vector intrinsics, LANES at a time."""
     block = x.reshape(-1, LANES).copy()
     for i in range(block.shape[0]):
-        if code == 0:
-            _bipolar_lanes(block, i * LANES, TABLE)
-        elif code == 1:
-            _gaussian_lanes(block, i * LANES, TABLE)
-        elif code == 3:
-            _sine_row(block, i)
-        else:
-            _sigmoid_lanes(block, i * LANES, TABLE)
+        activate_row(block, i, code)
     out[:] = block.reshape(-1)
 
 

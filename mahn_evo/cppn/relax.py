@@ -134,6 +134,23 @@ def _sine_row(new, i):  # pragma: no cover
             new[i, k] = _activate(3, new[i, k])
 
 
+@numba.njit(cache=True, inline="always")
+def activate_row(new, i, code):  # pragma: no cover
+    """Activation `code` on the LANES values of row i of a block, in place: the exponential ones and the sine as
+    vectors (the same values as `_activate`, see `_exp_lanes` and `_sine_row`), the others lane by lane."""
+    if code == 0:
+        _bipolar_lanes(new, i * LANES, TABLE)
+    elif code == 1:
+        _gaussian_lanes(new, i * LANES, TABLE)
+    elif code == 7:
+        _sigmoid_lanes(new, i * LANES, TABLE)
+    elif code == 3:
+        _sine_row(new, i)
+    else:
+        for k in range(LANES):
+            new[i, k] = _activate(code, new[i, k])
+
+
 @numba.njit(cache=True)
 def _relax(queries, n_in, act, csrc, cdst, cw, mod_ptr, mod_in, mod_out, out_idx, steps):  # pragma: no cover
     """Relax every query; queries run in blocks of LANES side by side.
@@ -167,18 +184,7 @@ def _relax(queries, n_in, act, csrc, cdst, cw, mod_ptr, mod_in, mod_out, out_idx
                 for k in range(LANES):
                     new[d, k] += sig[s, k] * wc
             for i in range(first, n):
-                code = act[i]
-                if code == 0:
-                    _bipolar_lanes(new, i * LANES, TABLE)
-                elif code == 1:
-                    _gaussian_lanes(new, i * LANES, TABLE)
-                elif code == 7:
-                    _sigmoid_lanes(new, i * LANES, TABLE)
-                elif code == 3:
-                    _sine_row(new, i)
-                else:
-                    for k in range(LANES):
-                        new[i, k] = _activate(code, new[i, k])
+                activate_row(new, i, act[i])
             for m in range(mod_ptr.shape[0] - 1):
                 o = mod_out[m]
                 for k in range(LANES):

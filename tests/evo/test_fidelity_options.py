@@ -235,21 +235,13 @@ def test_the_relaxations_vector_activations_are_the_scalar_ones_bit_for_bit():
     (NaN stays NaN).  benchmarks/check_expf.py checks every float32."""
     from numba import njit
 
-    from mahn_envs.core.expf import TABLE
-    from mahn_evo.cppn.relax import LANES, _activate, _bipolar_lanes, _gaussian_lanes, _sigmoid_lanes, _sine_row
+    from mahn_evo.cppn.relax import LANES, _activate, activate_row
 
     @njit
     def vector(code, x):
         block = x.reshape(-1, LANES).copy()
         for i in range(block.shape[0]):
-            if code == 0:
-                _bipolar_lanes(block, i * LANES, TABLE)
-            elif code == 1:
-                _gaussian_lanes(block, i * LANES, TABLE)
-            elif code == 3:
-                _sine_row(block, i)
-            else:
-                _sigmoid_lanes(block, i * LANES, TABLE)
+            activate_row(block, i, code)
         return block.reshape(-1)
 
     @njit
