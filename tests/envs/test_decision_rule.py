@@ -13,17 +13,7 @@ import pytest
 from numba import njit
 
 from mahn_envs.core import BatchSim, TaskParams
-from mahn_envs.core.controller import (
-    LANES,
-    NET_LANE,
-    OUT_LANE,
-    _sigmoid,
-    network_action,
-    pack_networks,
-    remembered_action_16,
-    transposed,
-    winner_take_all,
-)
+from mahn_envs.core.controller import _sigmoid, network_action, transposed, winner_take_all
 from mahn_envs.policies.controller_policy import ControllerPolicy
 from mahn_envs.policies.team_controllers import TeamControllers
 from mahn_evo.evaluation.margins import decision_margins
@@ -31,6 +21,7 @@ from mahn_evo.evaluation.task_setup import task_env
 from mahn_evo.training.champion import Champion
 
 from .helpers import random_team
+from .test_kernel_identity import packed_network
 
 PUBLISHED = Path(__file__).parents[2] / "docs" / "results" / "experiment_mahn_0.1" / "champions"
 AGENTS = ["robot_0", "robot_1", "robot_2"]
@@ -69,20 +60,8 @@ def reference_net_decision(b, r, obs, rflag_signal, wt_ih, wt_hh, wt_ho, b_h, b_
 
 
 def _packed(by_net):
-    def run(b, r, obs, sig, wt_ih, wt_hh, wt_ho, b_h, b_o, hid, out, brain, tmp):
-        wpack = np.empty(wt_ih.shape[:3] + (LANES, LANES), np.float32)
-        bpack = np.empty(wt_ih.shape[:3] + (LANES,), np.float32)
-        pack_networks(wt_ih, wt_hh, wt_ho, b_h, b_o, wpack, bpack)
-        state = np.zeros((hid.shape[0], hid.shape[1], LANES), np.float32)
-        state[:, :, :9] = hid
-        state[:, :, OUT_LANE:OUT_LANE + 3] = out
-        action = remembered_action_16(b, r, obs, sig, wt_ih.shape[2], wpack, bpack, state, brain,
-                                      np.zeros(9, np.float32), np.zeros((hid.shape[1], 7), np.float32),
-                                      np.zeros((hid.shape[1], 3), np.int64), by_net)
-        hid[:] = state[:, :, :9]
-        out[:] = state[:, :, OUT_LANE:OUT_LANE + 3]
-        tmp[9:12] = state[b, r, NET_LANE:NET_LANE + 3]
-        return action
+    def run(*args):
+        return packed_network(*args, by_net)
     return run
 
 

@@ -88,9 +88,10 @@ def reference_cast_rays(cx, cy, heading, dirs, max_range, walls, others, n_other
 
 
 @njit(error_model="numpy")
-def packed_network(b, r, obs, rflag_signal, wt_ih, wt_hh, wt_ho, b_h, b_o, hid, out, brain, tmp):
+def packed_network(b, r, obs, rflag_signal, wt_ih, wt_hh, wt_ho, b_h, b_o, hid, out, brain, tmp, by_net=False):
     """`network_action` through the episode loop's packed path: `pack_networks`, then `remembered_action_16` with
-    an empty memo (so it always computes), its state copied from and back to hid and out."""
+    an empty memo (so it always computes), its state copied from and back to hid and out (`by_net`: deciding by
+    the outputs' net inputs)."""
     wpack = np.empty(wt_ih.shape[:3] + (LANES, LANES), np.float32)
     bpack = np.empty(wt_ih.shape[:3] + (LANES,), np.float32)
     pack_networks(wt_ih, wt_hh, wt_ho, b_h, b_o, wpack, bpack)
@@ -100,7 +101,7 @@ def packed_network(b, r, obs, rflag_signal, wt_ih, wt_hh, wt_ho, b_h, b_o, hid, 
     memo_obs = np.zeros((hid.shape[1], 7), np.float32)
     memo = np.zeros((hid.shape[1], 3), np.int64)
     action = remembered_action_16(b, r, obs, rflag_signal, wt_ih.shape[2], wpack, bpack, state, brain,
-                                  np.zeros(9, np.float32), memo_obs, memo)
+                                  np.zeros(9, np.float32), memo_obs, memo, by_net)
     hid[:] = state[:, :, :9]
     out[:] = state[:, :, OUT_LANE:OUT_LANE + 3]
     return action
