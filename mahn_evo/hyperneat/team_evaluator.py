@@ -142,7 +142,8 @@ class TeamEvaluator:
         self.world = load_map(settings.map)
         self._sims: dict[int, BatchSim] = {}
         self._clean_sims: dict[int, BatchSim] = {}
-        self._decoded: GenerationMemo[TeamControllers] = GenerationMemo()
+        #: genome -> (the batch it was decoded in, its row)
+        self._decoded: GenerationMemo[tuple[TeamControllers, int]] = GenerationMemo()
         self._scores: GenerationMemo[tuple[float, bool]] = GenerationMemo()
 
     def decode(self, genomes: Sequence) -> TeamControllers:
@@ -159,9 +160,15 @@ class TeamEvaluator:
             plans = [compile_genome(g, s.cppn_activation, s.evaluate_modules) for g in todo.values()]
             fresh = decode_population(plans, s.mode, self.world.n_robots)
             for i, key in enumerate(todo):
-                self._decoded.put(key, fresh.team(i))
-        teams = [self._decoded.get(key) for key in keys]
-        return TeamControllers.stack([t for t in teams if t is not None]).with_decision(s.decision)
+                self._decoded.put(key, (fresh, i))
+        rows: list[tuple[TeamControllers, int]] = []
+        for key in keys:
+            row = self._decoded.get(key)
+            if row is None:  # cannot happen: every key was decoded above or is remembered
+                raise RuntimeError("TeamEvaluator.decode: a genome was neither decoded nor remembered")
+            rows.append(row)
+        w_ih, w_hh, w_ho, b_h, b_o = (np.stack([getattr(batch, f)[i] for batch, i in rows]) for f in CONTROLLER_FIELDS)
+        return TeamControllers(w_ih, w_hh, w_ho, b_h, b_o, s.decision)
 
     def _sim(self, n: int) -> BatchSim:
         if n not in self._sims:
