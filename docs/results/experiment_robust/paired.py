@@ -30,7 +30,9 @@ def main(files: list[str]) -> None:
         data = json.loads(Path(f).read_text())
         for r in data["measures"]:
             rows[r["run"]] = r
-    ordered = [rows[k] for k in sorted(rows, key=lambda k: (k.split("_s")[1], k.split("_")[0] != "faithful"))]
+    robust = {k.split("_s")[1] for k in rows if k.startswith("robust_")}
+    keep = [k for k in rows if k.split("_s")[1] in robust]  # seeds with a robust run only
+    ordered = [rows[k] for k in sorted(keep, key=lambda k: (k.split("_s")[1], k.split("_")[0] != "faithful"))]
     atomic_write_json(HERE / "paired.json", {
         "note": "champion.json of each run (the best team by training fitness), measured by "
                 "docs/results/robustness/measure.py; faithful = docs/results/experiment/ (iros2011-multistep, "
