@@ -13,7 +13,7 @@ from .cppn import CPPN_ACTIVATIONS
 from .evaluation.task_setup import NOISE_PRESETS
 from .hyperneat.substrate import MODES
 from .hyperneat.team_evaluator import AGGREGATES, NOISE_DRAWS
-from .training.config import INITS, EvolutionConfig, load_config_file
+from .training.config import INITS, ROBUST_FROM, EvolutionConfig, load_config_file
 from .training.presets import PRESETS, apply_preset
 
 
@@ -41,6 +41,10 @@ def _fidelity_and_robustness_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--noise-free-episode", action="store_true", default=None,
                    help="with --noise: also score every team on one noise-free episode, aggregated with the noisy "
                         "ones (a team must work with and without noise)")
+    p.add_argument("--robust-from", choices=ROBUST_FROM,
+                   help="with --noise: start (default: every generation is scored under noise) or first_solution "
+                        "(noise-free, exactly the run without noise, until the first solution; the generations "
+                        "after it are scored under noise and harden the solved population)")
 
 
 def _train_parser(sub) -> None:
@@ -185,7 +189,7 @@ def cmd_screen(args) -> int:
 
 
 def cmd_experiment(args) -> int:
-    from .experiment.plan import ExperimentPlan
+    from .experiment.plan import EVOLUTION_FIELDS, ExperimentPlan
     from .experiment.runner import run_experiment
 
     base = apply_preset(EvolutionConfig(), args.preset) if args.preset else EvolutionConfig()
@@ -197,11 +201,9 @@ def cmd_experiment(args) -> int:
               "decision": args.decision,
               "noise": args.noise, "episodes": args.episodes, "noise_draws": args.noise_draws,
               "aggregate": args.aggregate, "quantile": args.quantile,
-              "noise_free_episode": args.noise_free_episode}
-    from_base = {k: getattr(base, k) for k in ("init", "evaluate_modules", "cppn_activation", "decision",
-                                                "episodes", "noise_draws", "aggregate", "quantile",
-                                                "noise_free_episode")
-                 if args.preset or args.config}
+              "noise_free_episode": args.noise_free_episode, "robust_from": args.robust_from}
+    # a preset or config file sets the evaluation fields (not the plan's scale: map and after_solved are flags)
+    from_base = {k: getattr(base, k) for k in EVOLUTION_FIELDS if k in chosen and (args.preset or args.config)}
     fields = {k: getattr(d, k) for k in chosen} | from_base | {k: v for k, v in chosen.items() if v is not None}
     plan = ExperimentPlan(modes=tuple(args.modes), runs=args.runs, seed=args.seed, generations=args.generations,
                           population=args.pop, map=args.map, after_solved=args.after_solved, top=args.top,
@@ -286,6 +288,8 @@ def cmd_train(args) -> int:
     config = base.with_overrides(**overrides)
     if args.noise is not None:
         config = config.with_noise(args.noise)
+    if args.robust_from is not None:  # after the noise: robust_from "first_solution" needs a noisy task
+        config = config.with_overrides(robust_from=args.robust_from)
     from .storage.folder_lock import folder_lock
 
     with folder_lock(args.out, "run folder"):

@@ -8,7 +8,7 @@ the table meaningless.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any
 
@@ -21,6 +21,10 @@ from ..storage.migrate import V1_CHANGED_NEAT_DEFAULTS
 from ..training.config import INITS, EvolutionConfig
 
 PLAN_FILE = "experiment.json"
+
+#: the plan's fields that are EvolutionConfig fields of the same name, passed to every run as they are
+EVOLUTION_FIELDS = ("init", "evaluate_modules", "cppn_activation", "decision", "episodes", "noise_draws", "aggregate",
+                    "quantile", "noise_free_episode", "robust_from", "map", "after_solved")
 
 
 @dataclass(frozen=True)
@@ -41,6 +45,8 @@ class ExperimentPlan:
     aggregate: str = "mean"
     quantile: float = 0.25
     noise_free_episode: bool = False
+    #: "start" or "first_solution": robust evaluation from the first generation, or only after the first solution
+    robust_from: str = "start"
     map: str = "plus"
     after_solved: int = 50  # generations kept after the first solution, for the generalisation test
     top: int = 5  # most general solutions (from distinct runs) per mode that get the transfer tests
@@ -81,13 +87,11 @@ class ExperimentPlan:
         return f"{mode}_s{seed:03d}"
 
     def train_config(self, mode: str, seed: int) -> EvolutionConfig:
-        base = EvolutionConfig(mode=mode, generations=self.generations, seed=seed, init=self.init, map=self.map,
-                           evaluate_modules=self.evaluate_modules, cppn_activation=self.cppn_activation,
-                           decision=self.decision,
-                           episodes=self.episodes, noise_draws=self.noise_draws, aggregate=self.aggregate,
-                           quantile=self.quantile, noise_free_episode=self.noise_free_episode,
-                           stop_when_solved=True,
-                           after_solved=self.after_solved).with_noise(self.noise)
+        # with_noise follows, so a noise-dependent check (robust_from) sees the task's noise: build without it first
+        shared = {k: getattr(self, k) for k in EVOLUTION_FIELDS}
+        base = EvolutionConfig(mode=mode, generations=self.generations, seed=seed, stop_when_solved=True,
+                               **{**shared, "robust_from": "start"}).with_noise(self.noise)
+        base = replace(base, robust_from=self.robust_from)
         base = base.with_overrides(pop=self.population)
         if self.neat:
             base = EvolutionConfig.from_mapping({**base.to_dict(), "neat": {**base.neat.to_dict(), **self.neat,

@@ -110,7 +110,11 @@ def team_keys(ctrl: TeamControllers) -> list[bytes]:
 def distinct_teams(ctrl: TeamControllers) -> tuple[np.ndarray, np.ndarray]:
     """(first, index): `first` lists one team of each distinct set of controller arrays (in order of first
     appearance) and team i equals team first[index[i]].  Teams are compared bit for bit (float32 patterns)."""
-    keys = team_keys(ctrl)
+    return distinct_keys(team_keys(ctrl))
+
+
+def distinct_keys(keys: Sequence[bytes]) -> tuple[np.ndarray, np.ndarray]:
+    """`distinct_teams` of teams given by their `team_keys`."""
     n = len(keys)
     seen: dict[bytes, int] = {}
     first: list[int] = []
@@ -197,11 +201,12 @@ class TeamEvaluator:
         """
         s = self.settings
         ctrl = controllers.as_batch()
-        first, index = distinct_teams(ctrl)
+        all_keys = team_keys(ctrl)
+        first, index = distinct_keys(all_keys)
         if len(first) < ctrl.w_ih.shape[0]:
             ctrl = _rows(ctrl, first)
         n = ctrl.w_ih.shape[0]
-        teams = team_keys(ctrl)
+        teams = [all_keys[i] for i in first]
         self._scores.next_generation()
         episodes = [(False, key) for key in self.episode_keys(generation)]
         if s.noise_free_episode:

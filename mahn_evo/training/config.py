@@ -24,6 +24,10 @@ else:  # Python 3.10: the same parser from PyPI (a dependency there, see pyproje
     import tomli as tomllib
 
 INITS = ("iros2011", "minimal")
+#: When a noisy (robust) evaluation starts: "start" (every generation) or "first_solution" (noise-free, exactly as a
+#: run without noise, until the first solution; from the next generation on, the robust evaluation hardens the
+#: solved population)
+ROBUST_FROM = ("start", "first_solution")
 
 
 @dataclass(frozen=True)
@@ -59,6 +63,10 @@ class EvolutionConfig:
     quantile: float = 0.25
     #: with noise: also score each team on one noise-free episode (see TeamEvaluator)
     noise_free_episode: bool = False
+    #: when the noisy evaluation starts (ROBUST_FROM); with "first_solution" the run is the noise-free run until its
+    #: first solution, then the robust evaluation scores the generations after it (with stop_when_solved,
+    #: `after_solved` of them): the solve rate of noise-free evolution, then selection for robustness
+    robust_from: str = "start"
     stop_when_solved: bool = False
     #: with stop_when_solved, generations still run after the first solution so the archive gathers the
     #: alternative solutions the generalisation test chooses among (0 = stop at once)
@@ -79,11 +87,23 @@ class EvolutionConfig:
                 raise ValueError(f"{name} must be a positive integer, got {v!r}")
         if isinstance(self.after_solved, bool) or not isinstance(self.after_solved, int) or self.after_solved < 0:
             raise ValueError(f"after_solved must be a non-negative integer, got {self.after_solved!r}")
+        if self.robust_from not in ROBUST_FROM:
+            raise ValueError(f"robust_from must be one of {ROBUST_FROM}, got {self.robust_from!r}")
+        if self.robust_from != "start" and self.task == self.task.without_noise():
+            raise ValueError(f"robust_from {self.robust_from!r} switches to a noisy evaluation, but the task has no "
+                             "noise: choose a noise preset (--noise generalization)")
 
     @property
     def evaluation(self) -> EvaluationSettings:
         """How this run scores its genomes: the fields of this configuration that `EvaluationSettings` names."""
         return EvaluationSettings(**{f.name: getattr(self, f.name) for f in fields(EvaluationSettings)})
+
+    @property
+    def noise_free_evaluation(self) -> EvaluationSettings:
+        """The evaluation before the first solution when robust_from is "first_solution": one noise-free episode,
+        field for field that of the same run without noise (so that phase is bit-identical to it)."""
+        return replace(self.evaluation, task=self.task.without_noise(), episodes=1, noise_draws="fixed",
+                       aggregate="mean", quantile=0.25, noise_free_episode=False)
 
     @property
     def n_cppn_inputs(self) -> int:

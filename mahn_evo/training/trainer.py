@@ -6,10 +6,12 @@ Run folder:
   checkpoint.json  full NEAT state + trainer state after the last finished generation (atomic, with the sha256
                    of its content: a changed digit is refused, not resumed as another run); --resume
                    continues from it bit-identically
-  champion.json    best team so far (CPPN + decoded controllers)
+  champion.json    best team so far (CPPN + decoded controllers); with robust_from "first_solution", the best
+                   team of the robust phase once it has started
   archive/         every solved champion that improved on the last archived one (the generalisation test
                    picks among all solutions a run found)
-  summary.json     mode, seed, generations, best_fitness, solved, first_solved_generation, wall time
+  summary.json     mode, seed, generations, best_fitness, solved, first_solved_generation, wall time (and, with
+                   robust_from "first_solution", robust_from_generation: the first generation scored under noise)
   fitness.png      the fitness curve
 
 A fresh run refuses a folder that holds another run (--overwrite removes it first); `mahn-evo train` and each
@@ -79,6 +81,10 @@ class Trainer:
         self.config = config
         self.out = check_folder_usable(out_dir, "run folder")
         self.evaluator = TeamEvaluator(config.evaluation)
+        #: robust_from "first_solution": the noise-free evaluation that scores the generations up to the first
+        #: solution (the same run as without noise until then)
+        self.noise_free_evaluator = (TeamEvaluator(config.noise_free_evaluation)
+                                     if config.robust_from == "first_solution" else None)
         self.rows: list[list] = []
         self.best_fitness = -np.inf
         self.first_solved: int | None = None
@@ -173,7 +179,15 @@ class Trainer:
         cfg = self.config
         genomes = self.population.ask()
         gen = self.population.generation
-        ev = self.evaluator.evaluate(genomes, gen)
+        evaluator, episodes = self.evaluator, cfg.episodes
+        if self.noise_free_evaluator is not None:
+            if self.first_solved is None or gen <= self.first_solved:
+                evaluator, episodes = self.noise_free_evaluator, 1
+            elif gen == self.first_solved + 1:
+                # the robust phase starts: its champion and archive are the best teams under the robust evaluation
+                # (noise-free scores are not comparable with aggregated noisy ones)
+                self.best_fitness = self.archived_fitness = -np.inf
+        ev = evaluator.evaluate(genomes, gen)
         order = np.argsort(-ev.fitness, kind="stable")
         best = int(order[0])
         solved_mask = ev.solved >= 1.0
@@ -189,7 +203,7 @@ class Trainer:
         stats = self.population.tell(ev.fitness)
         seconds = time.perf_counter() - t0
         self.wall += seconds
-        evaluations = (gen + 1) * len(genomes) * cfg.episodes
+        evaluations = (self.rows[-1][1] if self.rows else 0) + len(genomes) * episodes
         self.rows.append([gen, evaluations, float(ev.fitness[best]), float(ev.fitness.mean()),
                           float(self.best_fitness), bool(solved_mask[best]), int(solved_mask.sum()),
                           stats.n_species, round(stats.threshold, 6), round(stats.mean_complexity, 3),
@@ -238,6 +252,8 @@ class Trainer:
                    "best_fitness": None if not np.isfinite(self.best_fitness) else self.best_fitness,
                    "solved": self.first_solved is not None, "first_solved_generation": self.first_solved,
                    "evaluations": self.rows[-1][1] if self.rows else 0, "wall_seconds": round(self.wall, 3)}
+        if self.config.robust_from == "first_solution":
+            summary["robust_from_generation"] = None if self.first_solved is None else self.first_solved + 1
         atomic_write_json(self.out / "summary.json", summary)
         from ..plots import fitness_curve
 

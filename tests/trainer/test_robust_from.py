@@ -1,0 +1,111 @@
+"""robust_from "first_solution": the noise-free run until its first solution, robust evaluation after it."""
+from __future__ import annotations
+
+import json
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from mahn_evo.cli import main
+from mahn_evo.experiment.plan import ExperimentPlan
+from mahn_evo.hyperneat.team_evaluator import TeamEvaluator
+from mahn_evo.training.config import EvolutionConfig
+from mahn_evo.training.trainer import Trainer
+
+SOLVED_AT = 1  # the generation the tests declare solved (a real solution takes hundreds of generations)
+
+
+def _hardening(**kw) -> EvolutionConfig:
+    base = dict(generations=6, seed=7, episodes=2, noise_draws="per_generation", noise_free_episode=True)
+    base.update(kw)
+    cfg = EvolutionConfig(**base).with_overrides(pop=24).with_noise("generalization")
+    return cfg.with_overrides(robust_from="first_solution")
+
+
+def _noise_free() -> EvolutionConfig:
+    return EvolutionConfig(generations=6, seed=7).with_overrides(pop=24)
+
+
+def _rows(t: Trainer) -> list[list]:
+    return [r[:-1] for r in t.rows]  # without the seconds column
+
+
+def _declare_solved(t: Trainer) -> None:
+    """As if generation SOLVED_AT had held a solution (the state the trainer keeps when one is found)."""
+    while t.generation <= SOLVED_AT:
+        t.step()
+    t.first_solved = SOLVED_AT
+
+
+def test_before_the_first_solution_the_run_is_the_noise_free_run(tmp_path):
+    hard, clean = Trainer(_hardening(), tmp_path / "h"), Trainer(_noise_free(), tmp_path / "c")
+    for _ in range(3):
+        hard.step()
+        clean.step()
+    assert _rows(hard) == _rows(clean)
+    assert hard.noise_free_evaluator is not None
+    assert hard.noise_free_evaluator.settings == clean.evaluator.settings
+
+
+def test_after_the_first_solution_teams_are_scored_under_noise(tmp_path):
+    cfg = _hardening()
+    hard = Trainer(cfg, tmp_path / "h")
+    _declare_solved(hard)
+    genomes = hard.population.ask()  # the next generation, as step() will ask for it
+    expected = TeamEvaluator(cfg.evaluation).evaluate(genomes, SOLVED_AT + 1).fitness
+    hard.step()
+    row = hard.rows[-1]
+    assert row[0] == SOLVED_AT + 1
+    assert row[2] == pytest.approx(float(expected.max()), abs=0)  # best fitness: the robust evaluation's
+    assert row[1] - hard.rows[-2][1] == 24 * cfg.episodes  # evaluations count the noisy episodes
+    # the champion is the robust phase's best, even where a noise-free score was higher
+    champ = json.loads((tmp_path / "h" / "champion.json").read_text())
+    assert champ["generation"] == SOLVED_AT + 1 and champ["fitness"] == float(expected.max())
+    assert hard.best_fitness == float(expected.max())
+    summary = hard.finish()
+    assert summary["robust_from_generation"] == SOLVED_AT + 1 and summary["first_solved_generation"] == SOLVED_AT
+
+
+def test_the_switch_resumes_bit_identically(tmp_path):
+    full = Trainer(_hardening(), tmp_path / "full")
+    _declare_solved(full)
+    while full.generation < 5:
+        full.step()
+    full.finish()
+    part = Trainer(_hardening(), tmp_path / "part")
+    _declare_solved(part)
+    part.step()  # the first robust generation, then an interruption
+    part.finish()
+    resumed = Trainer(_hardening(), tmp_path / "part", resume=True)
+    assert resumed.first_solved == SOLVED_AT
+    while resumed.generation < 5:
+        resumed.step()
+    assert _rows(resumed) == _rows(full)
+    assert np.isclose(resumed.best_fitness, full.best_fitness, rtol=0, atol=0)
+
+
+def test_robust_from_needs_noise_and_a_known_value():
+    with pytest.raises(ValueError, match="no noise"):
+        EvolutionConfig(robust_from="first_solution")
+    with pytest.raises(ValueError, match="robust_from"):
+        replace(_hardening(), robust_from="later")
+    cfg = _hardening()
+    assert EvolutionConfig.from_mapping(cfg.to_dict()) == cfg
+    assert EvolutionConfig.from_saved({k: v for k, v in EvolutionConfig().to_dict().items()
+                                       if k != "robust_from"}).robust_from == "start"  # older files
+
+
+def test_experiment_plan_and_cli_pass_it_to_every_run(tmp_path):
+    plan = ExperimentPlan(modes=("situational",), runs=1, noise="generalization", episodes=2,
+                          noise_draws="per_generation", robust_from="first_solution")
+    cfg = plan.train_config("situational", 1)
+    assert cfg.robust_from == "first_solution" and cfg.episodes == 2 and cfg.task.sensor_noise > 0
+    assert ExperimentPlan.from_mapping({k: v for k, v in plan.to_dict().items() if k != "robust_from"}).robust_from \
+        == "start"
+    out = tmp_path / "run"
+    assert main(["train", "--generations", "1", "--pop", "12", "--noise", "generalization", "--episodes", "2",
+                 "--robust-from", "first_solution", "--out", str(out), "--quiet"]) == 0
+    saved = json.loads((out / "config.json").read_text())
+    assert saved["robust_from"] == "first_solution"
+    assert json.loads((out / "summary.json").read_text())["robust_from_generation"] is None  # not solved
