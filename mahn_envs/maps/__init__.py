@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 
+from ..jsonfile import read_json_object
 from ..khepera import DEFAULT_MODEL
 
 BUILTIN_MAPS = ("plus", "asymmetric_plus")
@@ -195,14 +196,5 @@ def load_map(map_spec: str | Path | Mapping[str, Any] | World) -> World:
     path = Path(spec)
     if not path.exists():
         raise ValueError(f"unknown map {spec!r}: not a built-in map {BUILTIN_MAPS} and no such file")
-    if path.is_dir():
-        raise ValueError(f"map {spec!r} is a folder, not a map JSON file")
-    try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except UnicodeDecodeError as exc:
-        raise ValueError(f"map {spec}: not UTF-8 text ({exc})") from exc
-    except json.JSONDecodeError as exc:
-        raise ValueError(f"map {spec}: not valid JSON ({exc})") from exc
-    except RecursionError as exc:
-        raise ValueError(f"map {spec}: JSON nested too deeply to be a map") from exc
+    data = read_json_object(path, "map")
     return world_from_dict(data, source=spec)

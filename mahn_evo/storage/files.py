@@ -17,6 +17,8 @@ from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
+from mahn_envs.jsonfile import read_json_object
+
 from .migrate import FORMAT_VERSION, check_version, upgrade
 
 #: key of the content checksum in files that carry one (checkpoints): sha256 of the canonical JSON of the rest
@@ -70,27 +72,6 @@ def atomic_write_csv(path: str | Path, header: Sequence[str], rows: Iterable[Seq
     w.writerow(header)
     w.writerows(rows)
     atomic_write_text(path, buf.getvalue())
-
-
-def read_json_object(path: str | Path, what: str) -> dict[str, Any]:
-    """A JSON object from a file; a missing file, a folder, undecodable or corrupt JSON or another top level is a
-    ValueError naming it."""
-    path = Path(path)
-    if not path.exists():
-        raise ValueError(f"{what} file {str(path)!r} does not exist")
-    if path.is_dir():
-        raise ValueError(f"{what} file {str(path)!r} is a folder, not a file")
-    try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except UnicodeDecodeError as exc:
-        raise ValueError(f"{what} file {str(path)!r} is not UTF-8 text ({exc})") from exc
-    except json.JSONDecodeError as exc:
-        raise ValueError(f"{what} file {str(path)!r} is corrupt (not valid JSON: {exc})") from exc
-    except RecursionError as exc:
-        raise ValueError(f"{what} file {str(path)!r} is nested too deeply to be a {what} file") from exc
-    if not isinstance(data, dict):
-        raise ValueError(f"{what} file {str(path)!r} must hold a JSON object")
-    return data
 
 
 def read_versioned_json(path: str | Path, kind: str) -> dict[str, Any]:
