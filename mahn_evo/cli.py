@@ -45,6 +45,9 @@ def _fidelity_and_robustness_options(p: argparse.ArgumentParser) -> None:
                    help="with --noise: start (default: every generation is scored under noise) or first_solution "
                         "(noise-free, exactly the run without noise, until the first solution; the generations "
                         "after it are scored under noise and harden the solved population)")
+    p.add_argument("--robust-delay", type=int, metavar="G",
+                   help="with --robust-from first_solution: G noise-free generations after the first solution "
+                        "before the noisy ones, so the solution spreads through the population first (default 0)")
 
 
 def _train_parser(sub) -> None:
@@ -201,7 +204,8 @@ def cmd_experiment(args) -> int:
               "decision": args.decision,
               "noise": args.noise, "episodes": args.episodes, "noise_draws": args.noise_draws,
               "aggregate": args.aggregate, "quantile": args.quantile,
-              "noise_free_episode": args.noise_free_episode, "robust_from": args.robust_from}
+              "noise_free_episode": args.noise_free_episode, "robust_from": args.robust_from,
+              "robust_delay": args.robust_delay}
     # a preset or config file sets the evaluation fields (not the plan's scale: map and after_solved are flags)
     from_base = {k: getattr(base, k) for k in EVOLUTION_FIELDS if k in chosen and (args.preset or args.config)}
     fields = {k: getattr(d, k) for k in chosen} | from_base | {k: v for k, v in chosen.items() if v is not None}
@@ -288,8 +292,8 @@ def cmd_train(args) -> int:
     config = base.with_overrides(**overrides)
     if args.noise is not None:
         config = config.with_noise(args.noise)
-    if args.robust_from is not None:  # after the noise: robust_from "first_solution" needs a noisy task
-        config = config.with_overrides(robust_from=args.robust_from)
+    # after the noise: robust_from "first_solution" needs a noisy task
+    config = config.with_overrides(robust_from=args.robust_from, robust_delay=args.robust_delay)
     from .storage.folder_lock import folder_lock
 
     with folder_lock(args.out, "run folder"):

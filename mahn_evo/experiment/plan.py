@@ -24,7 +24,8 @@ PLAN_FILE = "experiment.json"
 
 #: the plan's fields that are EvolutionConfig fields of the same name, passed to every run as they are
 EVOLUTION_FIELDS = ("init", "evaluate_modules", "cppn_activation", "decision", "episodes", "noise_draws", "aggregate",
-                    "quantile", "noise_free_episode", "robust_from", "map", "after_solved")
+                    "quantile", "noise_free_episode", "robust_from", "robust_delay", "map",
+                    "after_solved")
 
 
 @dataclass(frozen=True)
@@ -47,6 +48,7 @@ class ExperimentPlan:
     noise_free_episode: bool = False
     #: "start" or "first_solution": robust evaluation from the first generation, or only after the first solution
     robust_from: str = "start"
+    robust_delay: int = 0  # with robust_from "first_solution": noise-free generations after it first
     map: str = "plus"
     after_solved: int = 50  # generations kept after the first solution, for the generalisation test
     top: int = 5  # most general solutions (from distinct runs) per mode that get the transfer tests
@@ -90,8 +92,8 @@ class ExperimentPlan:
         # with_noise follows, so a noise-dependent check (robust_from) sees the task's noise: build without it first
         shared = {k: getattr(self, k) for k in EVOLUTION_FIELDS}
         base = EvolutionConfig(mode=mode, generations=self.generations, seed=seed, stop_when_solved=True,
-                               **{**shared, "robust_from": "start"}).with_noise(self.noise)
-        base = replace(base, robust_from=self.robust_from)
+                               **{**shared, "robust_from": "start", "robust_delay": 0}).with_noise(self.noise)
+        base = replace(base, robust_from=self.robust_from, robust_delay=self.robust_delay)
         base = base.with_overrides(pop=self.population)
         if self.neat:
             base = EvolutionConfig.from_mapping({**base.to_dict(), "neat": {**base.neat.to_dict(), **self.neat,

@@ -25,8 +25,8 @@ else:  # Python 3.10: the same parser from PyPI (a dependency there, see pyproje
 
 INITS = ("iros2011", "minimal")
 #: When a noisy (robust) evaluation starts: "start" (every generation) or "first_solution" (noise-free, exactly as a
-#: run without noise, until the first solution; from the next generation on, the robust evaluation hardens the
-#: solved population)
+#: run without noise, until the first solution and `robust_delay` generations more; then the robust evaluation
+#: hardens the solved population)
 ROBUST_FROM = ("start", "first_solution")
 
 
@@ -67,6 +67,11 @@ class EvolutionConfig:
     #: first solution, then the robust evaluation scores the generations after it (with stop_when_solved,
     #: `after_solved` of them): the solve rate of noise-free evolution, then selection for robustness
     robust_from: str = "start"
+    #: with robust_from "first_solution": noise-free generations after the first solution before the robust phase.
+    #: A first solution is one genome; within a few dozen noise-free generations it spreads to 50-100 (the faithful
+    #: runs' logs), which gives the robust phase solved variants to select among.  Hardening at once (0) lost the
+    #: solution (docs/results/experiment_harden/).
+    robust_delay: int = 0
     stop_when_solved: bool = False
     #: with stop_when_solved, generations still run after the first solution so the archive gathers the
     #: alternative solutions the generalisation test chooses among (0 = stop at once)
@@ -89,6 +94,11 @@ class EvolutionConfig:
             raise ValueError(f"after_solved must be a non-negative integer, got {self.after_solved!r}")
         if self.robust_from not in ROBUST_FROM:
             raise ValueError(f"robust_from must be one of {ROBUST_FROM}, got {self.robust_from!r}")
+        if isinstance(self.robust_delay, bool) or not isinstance(self.robust_delay, int) or self.robust_delay < 0:
+            raise ValueError(f"robust_delay must be a non-negative integer, got {self.robust_delay!r}")
+        if self.robust_delay and self.robust_from != "first_solution":
+            raise ValueError("robust_delay counts generations after the first solution: it needs robust_from "
+                             "'first_solution'")
         if self.robust_from != "start" and self.task == self.task.without_noise():
             raise ValueError(f"robust_from {self.robust_from!r} switches to a noisy evaluation, but the task has no "
                              "noise: choose a noise preset (--noise generalization)")
@@ -97,6 +107,13 @@ class EvolutionConfig:
     def evaluation(self) -> EvaluationSettings:
         """How this run scores its genomes: the fields of this configuration that `EvaluationSettings` names."""
         return EvaluationSettings(**{f.name: getattr(self, f.name) for f in fields(EvaluationSettings)})
+
+    def robust_phase_start(self, first_solved: int | None) -> int | None:
+        """The first generation scored by the robust evaluation, given the run's first solved generation (None:
+        not yet known)."""
+        if self.robust_from == "start":
+            return 0
+        return None if first_solved is None else first_solved + self.robust_delay + 1
 
     @property
     def noise_free_evaluation(self) -> EvaluationSettings:

@@ -181,9 +181,10 @@ class Trainer:
         gen = self.population.generation
         evaluator, episodes = self.evaluator, cfg.episodes
         if self.noise_free_evaluator is not None:
-            if self.first_solved is None or gen <= self.first_solved:
+            start = cfg.robust_phase_start(self.first_solved)
+            if start is None or gen < start:
                 evaluator, episodes = self.noise_free_evaluator, 1
-            elif gen == self.first_solved + 1:
+            elif gen == start:
                 # the robust phase starts: its champion and archive are the best teams under the robust evaluation
                 # (noise-free scores are not comparable with aggregated noisy ones)
                 self.best_fitness = self.archived_fitness = -np.inf
@@ -253,7 +254,7 @@ class Trainer:
                    "solved": self.first_solved is not None, "first_solved_generation": self.first_solved,
                    "evaluations": self.rows[-1][1] if self.rows else 0, "wall_seconds": round(self.wall, 3)}
         if self.config.robust_from == "first_solution":
-            summary["robust_from_generation"] = None if self.first_solved is None else self.first_solved + 1
+            summary["robust_from_generation"] = self.config.robust_phase_start(self.first_solved)
         atomic_write_json(self.out / "summary.json", summary)
         from ..plots import fitness_curve
 

@@ -135,7 +135,7 @@ V2_TRAIN_DEFAULTS = {
     "mode": "situational", "generations": 1000, "seed": 0, "init": "iros2011", "map": "plus",
     "evaluate_modules": True, "cppn_activation": "recursive", "decision": "output",
     "episodes": 1, "noise_draws": "fixed",
-    "aggregate": "mean", "quantile": 0.25, "noise_free_episode": False, "robust_from": "start",
+    "aggregate": "mean", "quantile": 0.25, "noise_free_episode": False, "robust_from": "start", "robust_delay": 0,
     "stop_when_solved": False,
     "after_solved": 0, "checkpoint_every": 1,
 }

@@ -16,11 +16,11 @@ from mahn_evo.training.trainer import Trainer
 SOLVED_AT = 1  # the generation the tests declare solved (a real solution takes hundreds of generations)
 
 
-def _hardening(**kw) -> EvolutionConfig:
+def _hardening(robust_delay: int = 0, **kw) -> EvolutionConfig:
     base = dict(generations=6, seed=7, episodes=2, noise_draws="per_generation", noise_free_episode=True)
     base.update(kw)
     cfg = EvolutionConfig(**base).with_overrides(pop=24).with_noise("generalization")
-    return cfg.with_overrides(robust_from="first_solution")
+    return cfg.with_overrides(robust_from="first_solution", robust_delay=robust_delay)
 
 
 def _noise_free() -> EvolutionConfig:
@@ -98,14 +98,33 @@ def test_robust_from_needs_noise_and_a_known_value():
 
 def test_experiment_plan_and_cli_pass_it_to_every_run(tmp_path):
     plan = ExperimentPlan(modes=("situational",), runs=1, noise="generalization", episodes=2,
-                          noise_draws="per_generation", robust_from="first_solution")
+                          noise_draws="per_generation", robust_from="first_solution", robust_delay=30)
     cfg = plan.train_config("situational", 1)
-    assert cfg.robust_from == "first_solution" and cfg.episodes == 2 and cfg.task.sensor_noise > 0
-    assert ExperimentPlan.from_mapping({k: v for k, v in plan.to_dict().items() if k != "robust_from"}).robust_from \
+    assert (cfg.robust_from, cfg.robust_delay, cfg.episodes) == ("first_solution", 30, 2) and cfg.task.sensor_noise > 0
+    assert ExperimentPlan.from_mapping({k: v for k, v in plan.to_dict().items()
+                                        if k not in ("robust_from", "robust_delay")}).robust_from \
         == "start"
     out = tmp_path / "run"
     assert main(["train", "--generations", "1", "--pop", "12", "--noise", "generalization", "--episodes", "2",
-                 "--robust-from", "first_solution", "--out", str(out), "--quiet"]) == 0
+                 "--robust-from", "first_solution", "--robust-delay", "7", "--out", str(out), "--quiet"]) == 0
     saved = json.loads((out / "config.json").read_text())
-    assert saved["robust_from"] == "first_solution"
+    assert (saved["robust_from"], saved["robust_delay"]) == ("first_solution", 7)
     assert json.loads((out / "summary.json").read_text())["robust_from_generation"] is None  # not solved
+
+
+def test_robust_delay_keeps_the_run_noise_free_for_that_many_generations_after_the_solution(tmp_path):
+    delayed = Trainer(_hardening(robust_delay=2), tmp_path / "d")
+    clean = Trainer(_noise_free(), tmp_path / "c")
+    _declare_solved(delayed)
+    _declare_solved(clean)
+    for _ in range(2):  # generations SOLVED_AT + 1 and + 2: still the noise-free run
+        delayed.step()
+        clean.step()
+    assert _rows(delayed) == _rows(clean)
+    delayed.step()  # SOLVED_AT + 3: the first robust generation
+    assert delayed.rows[-1][1] - delayed.rows[-2][1] == 24 * 2
+    assert delayed.finish()["robust_from_generation"] == SOLVED_AT + 3
+    with pytest.raises(ValueError, match="robust_delay"):
+        _hardening(robust_delay=-1)
+    with pytest.raises(ValueError, match="first_solution"):
+        EvolutionConfig(robust_delay=5)
