@@ -1,8 +1,9 @@
-"""Merge champion measures (docs/results/robustness/measure.py outputs) into paired.json and print the table of
-README.md: each seed's robust champion beside the faithful experiment's champion of the same seed.
+"""Merge champion measures (measure.py outputs) into an experiment's paired.json and print the table of its
+README.md: each seed's champion beside the faithful experiment's champion of the same seed.
 
-Usage: python docs/results/experiment_robust/paired.py MEASURES.json [MEASURES.json ...]
-Rows are keyed by run name ("robust_s007", "faithful_s007"); a later file's row replaces an earlier one.
+Usage: python docs/results/robustness/paired.py EXPERIMENT_DOCS_DIR LABEL MEASURES.json [MEASURES.json ...]
+e.g. `paired.py docs/results/experiment_robust robust m1.json m2.json`.  Rows are keyed by run name
+("robust_s007", "faithful_s007"); a later file's row replaces an earlier one; seeds without a LABEL row are left out.
 """
 from __future__ import annotations
 
@@ -11,8 +12,6 @@ import sys
 from pathlib import Path
 
 from mahn_evo.storage.files import atomic_write_json
-
-HERE = Path(__file__).parent
 
 
 def _cells(r: dict) -> str:
@@ -24,20 +23,20 @@ def _cells(r: dict) -> str:
             f"{'-' if asym is None else f'{asym}/10'} | {r['tied_fraction']:.0%} / {r['flipped_decisions']}")
 
 
-def main(files: list[str]) -> None:
+def main(out_dir: str, label: str, files: list[str]) -> None:
     rows: dict[str, dict] = {}
     for f in files:
         data = json.loads(Path(f).read_text())
         for r in data["measures"]:
             rows[r["run"]] = r
-    robust = {k.split("_s")[1] for k in rows if k.startswith("robust_")}
-    keep = [k for k in rows if k.split("_s")[1] in robust]  # seeds with a robust run only
+    measured = {k.split("_s")[1] for k in rows if k.startswith(f"{label}_")}
+    keep = [k for k in rows if k.split("_s")[1] in measured and k.split("_s")[0] in (label, "faithful")]
     ordered = [rows[k] for k in sorted(keep, key=lambda k: (k.split("_s")[1], k.split("_")[0] != "faithful"))]
-    atomic_write_json(HERE / "paired.json", {
+    atomic_write_json(Path(out_dir) / "paired.json", {
         "note": "champion.json of each run (the best team by training fitness), measured by "
                 "docs/results/robustness/measure.py; faithful = docs/results/experiment/ (iros2011-multistep, "
-                "noise-free), robust = this experiment; same seeds. Rows without sequential_successes_by_map were "
-                "measured before the protocol ran on asymmetric_plus too.",
+                f"noise-free), {label} = this experiment; same seeds. Rows without sequential_successes_by_map "
+                "were measured before the protocol ran on asymmetric_plus too.",
         "rows": ordered})
     print("| seed | training | noise-free | noisy mean (20) | noisy solved | emulator (3 seeds) | seq. noisy plus | "
           "seq. noisy asym. | exact ties / flips |")
@@ -48,4 +47,6 @@ def main(files: list[str]) -> None:
 
 
 if __name__ == "__main__":
-    main(sys.argv[1:])
+    if len(sys.argv) < 4:
+        sys.exit(__doc__)
+    main(sys.argv[1], sys.argv[2], sys.argv[3:])
