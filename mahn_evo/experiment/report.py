@@ -66,6 +66,19 @@ def _ties(entry: dict[str, Any]) -> str:
     return f"{100 * m['tied_fraction']:.0f}% / {100 * m['near_tie_fraction']:.0f}%{flips}"
 
 
+def _robust_text(plan: dict[str, Any]) -> str:
+    """How the plan's runs were scored under noise, for the report's first line ('' for noise-free plans)."""
+    if plan.get("noise", "none") == "none":
+        return ""
+    text = (f"teams scored on {plan['episodes']} episode(s) with the `{plan['noise']}` noise "
+            f"({plan['noise_draws']} draws, {plan['aggregate']} aggregate"
+            f"{', plus one noise-free episode' if plan.get('noise_free_episode') else ''})")
+    if plan.get("robust_from", "start") == "first_solution":
+        return (f"; noise-free until a run's first solution and {plan.get('robust_delay', 0)} generation(s) more, "
+                f"then {text}")
+    return f"; {text}"
+
+
 def markdown(results: dict[str, Any]) -> str:
     plan, table, test = results["plan"], results["table"], results["fisher"]
     lines = ["# Experiment results", "",
@@ -73,7 +86,8 @@ def markdown(results: dict[str, Any]) -> str:
              f"{plan['seed'] + plan['runs'] - 1}); population {plan['population']}; at most {plan['generations']} "
              f"generations; init `{plan['init']}`"
              f"{' with Multiply modules evaluated' if plan['evaluate_modules'] else ''}"
-             f"; map `{plan['map']}`; episodes of {plan['max_cycles']} ticks. Written by `mahn-evo experiment`.", "",
+             f"; map `{plan['map']}`; episodes of {plan['max_cycles']} ticks{_robust_text(plan)}. Written by "
+             "`mahn-evo experiment`.", "",
              "## Solved runs", "",
              "| mode | runs finished | in progress | solved | generations to solve: mean | sd | median | range | "
              "paper |", "|---|---|---|---|---|---|---|---|---|"]
@@ -88,6 +102,10 @@ def markdown(results: dict[str, Any]) -> str:
     lines.append("")
     lines.append("Generations to solve count generations evaluated up to and including the first solution; the sd "
                  "is the sample sd (n − 1).  Mean and sd are over solved runs, as in the paper.")
+    for mode, t in table.items():
+        if "solved_under_noise" in t:
+            lines += ["", f"Robust phase ({mode}): in {t['solved_under_noise']} of the {t['solved']} solved runs a "
+                          "generation scored under noise held a team that solved all its episodes."]
     if test:
         lines += ["", f"Fisher's exact test (two-sided), solved vs not solved, {test['modes'][0]} vs "
                       f"{test['modes'][1]}: table {test['table']}, p = {test['p_value']:.3g} "

@@ -38,6 +38,9 @@ class RunRecord:
     best_fitness: float | None
     wall_seconds: float
     best_ever: np.ndarray  # per generation
+    #: with robust_from "first_solution": whether a generation scored under noise held a team that solved all its
+    #: episodes (None: the plan has no such phase)
+    solved_under_noise: bool | None = None
 
     @property
     def generations_to_solve(self) -> int | None:
@@ -56,10 +59,13 @@ class RunRecord:
                        best_fitness=best, best_ever=self.best_ever[:limit])
 
     def to_dict(self) -> dict[str, Any]:
-        return {"run": self.name, "mode": self.mode, "seed": self.seed, "finished": self.finished,
-                "generations": self.generations, "solved": self.solved,
-                "generations_to_solve": self.generations_to_solve, "best_fitness": self.best_fitness,
-                "wall_seconds": round(self.wall_seconds, 1)}
+        d = {"run": self.name, "mode": self.mode, "seed": self.seed, "finished": self.finished,
+             "generations": self.generations, "solved": self.solved,
+             "generations_to_solve": self.generations_to_solve, "best_fitness": self.best_fitness,
+             "wall_seconds": round(self.wall_seconds, 1)}
+        if self.solved_under_noise is not None:
+            d["solved_under_noise"] = self.solved_under_noise
+        return d
 
 
 def _read_log(path: Path) -> list[dict[str, str]]:
@@ -83,8 +89,12 @@ def load_run(plan: ExperimentPlan, mode: str, seed: int, folder: Path) -> RunRec
     finished = bool(summary) and summary.get("generations") == gens and (
         gens >= plan.generations or (first is not None and gens > first + plan.after_solved))
     wall = float(sum(float(r["seconds"]) for r in rows))
+    under_noise = None
+    if plan.robust_from == "first_solution":
+        start = None if first is None else first + plan.robust_delay + 1
+        under_noise = start is not None and any(int(r["n_solved"]) > 0 for r in rows[start:])
     return RunRecord(folder.name, mode, seed, folder, finished, gens, first is not None, first,
-                     float(best.max()) if gens else None, wall, best)
+                     float(best.max()) if gens else None, wall, best, under_noise)
 
 
 def load_runs(plan: ExperimentPlan, out: str | Path) -> list[RunRecord]:
@@ -109,6 +119,8 @@ def mode_table(plan: ExperimentPlan, runs: list[RunRecord]) -> dict[str, dict[st
             "best_fitness_median": float(np.median([r.best_fitness for r in done])) if done else None,
             "wall_seconds_total": round(sum(r.wall_seconds for r in runs if r.mode == mode), 1),
         }
+        if plan.robust_from == "first_solution":
+            table[mode]["solved_under_noise"] = sum(1 for r in done if r.solved_under_noise)
     return table
 
 

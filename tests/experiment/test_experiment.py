@@ -2,6 +2,7 @@
 interruption, and the Ray backend giving the same runs as local processes."""
 import csv
 import json
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -143,3 +144,40 @@ def test_ray_backend_gives_the_same_runs(tmp_path):
         a = json.loads((f / "champion.json").read_text())
         b = json.loads((tmp_path / "ray" / "runs" / f.name / "champion.json").read_text())
         assert a == b
+
+
+def _write_log(folder: Path, solved_generations: set[int], gens: int = 12) -> None:
+    """A run's log.csv as the trainer writes it, with teams solved in `solved_generations`."""
+    from mahn_evo.storage.files import atomic_write_csv
+    from mahn_evo.training.trainer import LOG_HEADER
+
+    rows = [[g, 500 * (g + 1), 160.0 if g in solved_generations else 50.0, 20.0, 160.0, g in solved_generations,
+             3 if g in solved_generations else 0, 40, 3.0, 40.0, 0.2] for g in range(gens)]
+    folder.mkdir(parents=True)
+    atomic_write_csv(folder / "log.csv", LOG_HEADER, rows)
+
+
+def test_the_table_counts_runs_that_solve_under_noise_in_their_robust_phase(tmp_path):
+    from mahn_evo.experiment.report import _robust_text
+    from mahn_evo.experiment.table import load_run
+
+    plan = ExperimentPlan(modes=("situational",), runs=3, noise="generalization", episodes=3,
+                          noise_draws="per_generation", noise_free_episode=True, robust_from="first_solution",
+                          robust_delay=2, after_solved=8)
+    # first solution at 3: generations 4 and 5 are noise-free, the robust phase starts at 6
+    _write_log(tmp_path / "kept", {3, 4, 5, 9})
+    _write_log(tmp_path / "lost", {3, 4, 5})
+    _write_log(tmp_path / "never", set())
+    runs = [load_run(plan, "situational", s, tmp_path / name) for s, name in ((1, "kept"), (2, "lost"), (3, "never"))]
+    assert [r.solved_under_noise for r in runs] == [True, False, False]
+    assert [r.first_solved for r in runs] == [3, 3, None]
+    finished = [replace(r, finished=True) for r in runs]
+    t = mode_table(plan, finished)["situational"]
+    assert (t["solved"], t["solved_under_noise"]) == (2, 1)
+    assert runs[0].to_dict()["solved_under_noise"] is True
+    noise_free = ExperimentPlan(modes=("situational",), runs=1)
+    assert load_run(noise_free, "situational", 1, tmp_path / "kept").solved_under_noise is None
+    assert "solved_under_noise" not in mode_table(noise_free, finished)["situational"]
+    text = _robust_text(plan.to_dict())
+    assert "first solution and 2 generation(s) more" in text and "3 episode(s)" in text
+    assert _robust_text(noise_free.to_dict()) == ""
