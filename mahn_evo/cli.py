@@ -208,6 +208,11 @@ def cmd_experiment(args) -> int:
               "robust_delay": args.robust_delay}
     # a preset or config file sets the evaluation fields (not the plan's scale: map and after_solved are flags)
     from_base = {k: getattr(base, k) for k in EVOLUTION_FIELDS if k in chosen and (args.preset or args.config)}
+    if args.preset or args.config:
+        if base.noise_preset is None:
+            raise ValueError("an experiment names its task noise (--noise); the --config file sets other noise "
+                             f"levels than the presets {sorted(NOISE_PRESETS)}")
+        from_base["noise"] = base.noise_preset
     fields = {k: getattr(d, k) for k in chosen} | from_base | {k: v for k, v in chosen.items() if v is not None}
     plan = ExperimentPlan(modes=tuple(args.modes), runs=args.runs, seed=args.seed, generations=args.generations,
                           population=args.pop, map=args.map, after_solved=args.after_solved, top=args.top,

@@ -99,6 +99,10 @@ class EvolutionConfig:
         if self.robust_delay and self.robust_from != "first_solution":
             raise ValueError("robust_delay counts generations after the first solution: it needs robust_from "
                              "'first_solution'")
+        if self.robust_from == "first_solution" and self.stop_when_solved and self.after_solved <= self.robust_delay:
+            raise ValueError(f"the run stops {self.after_solved} generation(s) after its first solution, before its "
+                             f"robust phase (robust_delay {self.robust_delay}): give after_solved more than "
+                             f"{self.robust_delay} (docs/results/experiment_harden/ used 250 with delay 50)")
         if self.robust_from != "start" and self.task == self.task.without_noise():
             raise ValueError(f"robust_from {self.robust_from!r} switches to a noisy evaluation, but the task has no "
                              "noise: choose a noise preset (--noise generalization)")
@@ -150,6 +154,15 @@ class EvolutionConfig:
         """A configuration a run saved (config.json, a checkpoint's), as read by mahn_evo.storage.files, which
         upgraded it to the current format (mahn_evo.storage.migrate) so it holds the values the run was made with."""
         return cls.from_mapping({k: v for k, v in data.items() if k not in ("kind", "version")})
+
+    @property
+    def noise_preset(self) -> str | None:
+        """The name of the NOISE_PRESETS entry whose levels the task has ("none" without noise), None for other
+        levels (an experiment plan names its noise)."""
+        for name, levels in NOISE_PRESETS.items():
+            if self.task == replace(self.task.without_noise(), **levels):
+                return name
+        return None
 
     def with_noise(self, preset: str) -> EvolutionConfig:
         """This configuration with the task noise of a named preset (mahn_evo.evaluation.task_setup.NOISE_PRESETS)."""

@@ -128,3 +128,21 @@ def test_robust_delay_keeps_the_run_noise_free_for_that_many_generations_after_t
         _hardening(robust_delay=-1)
     with pytest.raises(ValueError, match="first_solution"):
         EvolutionConfig(robust_delay=5)
+
+
+def test_the_hardened_preset_is_the_faithful_preset_with_a_robust_phase():
+    from mahn_evo.training.presets import apply_preset
+
+    hard = apply_preset(EvolutionConfig(seed=4), "hardened")
+    faithful = apply_preset(EvolutionConfig(seed=4), "iros2011-multistep")
+    assert (hard.robust_from, hard.robust_delay, hard.episodes, hard.noise_draws, hard.noise_free_episode) == \
+        ("first_solution", 50, 3, "per_generation", True)
+    assert hard.noise_preset == "generalization" and faithful.noise_preset == "none"
+    assert hard.noise_free_evaluation == faithful.evaluation  # until the robust phase, the faithful run
+    assert hard.neat == faithful.neat
+    with pytest.raises(ValueError, match="before its robust phase"):
+        hard.with_overrides(stop_when_solved=True, after_solved=50)
+    assert hard.with_overrides(stop_when_solved=True, after_solved=51).after_solved == 51
+    # a preset without noise leaves a configuration's robust phase alone
+    kept = apply_preset(_hardening(robust_delay=3), "iros2011-multistep")
+    assert (kept.robust_from, kept.robust_delay, kept.noise_preset) == ("first_solution", 3, "generalization")
