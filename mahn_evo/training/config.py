@@ -160,7 +160,7 @@ class EvolutionConfig:
         """The name of the NOISE_PRESETS entry whose levels the task has ("none" without noise), None for other
         levels (an experiment plan names its noise)."""
         for name, levels in NOISE_PRESETS.items():
-            if self.task == replace(self.task.without_noise(), **levels):
+            if self.task == TaskParams.from_mapping({**self.task.without_noise().to_dict(), **levels}):
                 return name
         return None
 
