@@ -6,6 +6,7 @@ import json
 import sys
 from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from mahn_envs.core.controller import DECISIONS
 
@@ -15,6 +16,9 @@ from .hyperneat.substrate import MODES
 from .hyperneat.team_evaluator import AGGREGATES, NOISE_DRAWS
 from .training.config import INITS, ROBUST_FROM, EvolutionConfig, load_config_file
 from .training.presets import PRESETS, apply_preset
+
+if TYPE_CHECKING:  # the experiment package loads only when an experiment runs
+    from .experiment.plan import ExperimentPlan
 
 
 def _fidelity_and_robustness_options(p: argparse.ArgumentParser) -> None:
@@ -191,9 +195,10 @@ def cmd_screen(args) -> int:
     return 0
 
 
-def cmd_experiment(args) -> int:
+def experiment_plan(args: argparse.Namespace) -> ExperimentPlan:
+    """The ExperimentPlan that `mahn-evo experiment`'s arguments ask for: the defaults, then a preset or --config
+    file's evaluation settings, then the flags given."""
     from .experiment.plan import EVOLUTION_FIELDS, ExperimentPlan
-    from .experiment.runner import run_experiment
 
     base = apply_preset(EvolutionConfig(), args.preset) if args.preset else EvolutionConfig()
     if args.config:
@@ -214,10 +219,16 @@ def cmd_experiment(args) -> int:
                              f"levels than the presets {sorted(NOISE_PRESETS)}")
         from_base["noise"] = base.noise_preset
     fields = {k: getattr(d, k) for k in chosen} | from_base | {k: v for k, v in chosen.items() if v is not None}
-    plan = ExperimentPlan(modes=tuple(args.modes), runs=args.runs, seed=args.seed, generations=args.generations,
+    return ExperimentPlan(modes=tuple(args.modes), runs=args.runs, seed=args.seed, generations=args.generations,
                           population=args.pop, map=args.map, after_solved=args.after_solved, top=args.top,
                           general_episodes=args.general_episodes, transfer_episodes=args.transfer_episodes,
                           max_cycles=args.max_cycles, signal_tick=args.signal_tick, neat=neat, **fields)
+
+
+def cmd_experiment(args) -> int:
+    from .experiment.runner import run_experiment
+
+    plan = experiment_plan(args)
     import signal
 
     def _terminate(signum, frame):  # `kill PID` stops the workers too, like Ctrl-C

@@ -146,3 +146,21 @@ def test_the_hardened_preset_is_the_faithful_preset_with_a_robust_phase():
     # a preset without noise leaves a configuration's robust phase alone
     kept = apply_preset(_hardening(robust_delay=3), "iros2011-multistep")
     assert (kept.robust_from, kept.robust_delay, kept.noise_preset) == ("first_solution", 3, "generalization")
+
+
+def test_the_hardened_preset_reproduces_the_published_hardening_experiment():
+    from pathlib import Path
+
+    from mahn_evo.cli import build_parser, experiment_plan
+
+    published = ExperimentPlan.load(Path(__file__).parents[2] / "docs" / "results" / "experiment_harden")
+    args = build_parser().parse_args(["experiment", "--modes", "situational", "--preset", "hardened",
+                                      "--after-solved", "250"])
+    assert experiment_plan(args) == published
+    spelled_out = build_parser().parse_args([
+        "experiment", "--modes", "situational", "--preset", "iros2011-multistep", "--noise", "generalization",
+        "--episodes", "3", "--noise-draws", "per_generation", "--noise-free-episode", "--aggregate", "mean",
+        "--robust-from", "first_solution", "--robust-delay", "50", "--after-solved", "250"])
+    assert experiment_plan(spelled_out) == published
+    with pytest.raises(ValueError, match="before its robust phase"):
+        experiment_plan(build_parser().parse_args(["experiment", "--preset", "hardened"]))
