@@ -133,9 +133,11 @@ class ExperimentPlan:
             saved = ExperimentPlan.load(out)
             a, b = saved.to_dict(), self.to_dict()
             # a run is a pure function of its mode, seed and settings, so more runs, another mode beside the saved
-            # ones, or another analysis leave every finished run valid
+            # ones, or another analysis leave every finished run valid; more generations after the first solution
+            # continue the runs (from their checkpoints, bit-identically), fewer would leave them longer than planned
             may_change = ("runs", "modes", "top", "general_episodes", "transfer_episodes", "replays")
-            differing = sorted(k for k in a if a[k] != b[k] and k not in may_change)
+            differing = sorted(k for k in a if a[k] != b[k] and k not in may_change
+                               and not (k == "after_solved" and b[k] > a[k]))
             if differing:
                 hint = ""
                 if "neat" in differing:

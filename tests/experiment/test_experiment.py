@@ -181,3 +181,11 @@ def test_the_table_counts_runs_that_solve_under_noise_in_their_robust_phase(tmp_
     text = _robust_text(plan.to_dict())
     assert "first solution and 2 generation(s) more" in text and "3 episode(s)" in text
     assert _robust_text(noise_free.to_dict()) == ""
+
+
+def test_more_generations_after_the_solution_extend_an_experiment_fewer_are_refused(tmp_path):
+    ExperimentPlan(**{**SMALL, "after_solved": 50}).save_or_check(tmp_path)
+    ExperimentPlan(**{**SMALL, "after_solved": 80}).save_or_check(tmp_path)  # continues the runs
+    assert ExperimentPlan.load(tmp_path).after_solved == 80
+    with pytest.raises(ValueError, match="after_solved"):
+        ExperimentPlan(**{**SMALL, "after_solved": 60}).save_or_check(tmp_path)
