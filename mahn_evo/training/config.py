@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import Any
 
 from mahn_envs.core import TaskParams
+from mahn_envs.jsonfile import read_text_file
 
 from ..evaluation.task_setup import NOISE_PRESETS
 from ..hyperneat.team_evaluator import EvaluationSettings
@@ -185,14 +186,7 @@ class EvolutionConfig:
 def load_config_file(path: str | Path, base: EvolutionConfig | None = None) -> EvolutionConfig:
     """A EvolutionConfig from a TOML/JSON file; the file's fields (and its `neat`/`task` keys) override `base`."""
     p = Path(path)
-    if not p.exists():
-        raise ValueError(f"config file {str(p)!r} does not exist")
-    if p.is_dir():
-        raise ValueError(f"config file {str(p)!r} is a folder, not a file")
-    try:
-        text = p.read_text(encoding="utf-8")
-    except UnicodeDecodeError as exc:
-        raise ValueError(f"config file {str(p)!r} is not UTF-8 text ({exc})") from exc
+    text = read_text_file(p, "config")
     try:
         data = tomllib.loads(text) if p.suffix == ".toml" else json.loads(text)
     except (tomllib.TOMLDecodeError, json.JSONDecodeError, RecursionError) as exc:
