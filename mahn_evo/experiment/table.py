@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 
 from ..storage.files import read_json_object
+from ..training.config import robust_phase_start
 from .plan import ExperimentPlan
 
 #: The paper's figures (IROS 2011, 15 runs per mode, population 500, up to 1000 generations).
@@ -91,7 +92,7 @@ def load_run(plan: ExperimentPlan, mode: str, seed: int, folder: Path) -> RunRec
     wall = float(sum(float(r["seconds"]) for r in rows))
     under_noise = None
     if plan.robust_from == "first_solution":
-        start = None if first is None else first + plan.robust_delay + 1
+        start = robust_phase_start(plan.robust_from, plan.robust_delay, first)
         under_noise = start is not None and any(int(r["n_solved"]) > 0 for r in rows[start:])
     return RunRecord(folder.name, mode, seed, folder, finished, gens, first is not None, first,
                      float(best.max()) if gens else None, wall, best, under_noise)

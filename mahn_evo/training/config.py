@@ -31,6 +31,14 @@ INITS = ("iros2011", "minimal")
 ROBUST_FROM = ("start", "first_solution")
 
 
+def robust_phase_start(robust_from: str, robust_delay: int, first_solved: int | None) -> int | None:
+    """The first generation a run scores under noise (None: its first solution, which decides it, is not known);
+    the one rule the trainer and the experiment table both read."""
+    if robust_from == "start":
+        return 0
+    return None if first_solved is None else first_solved + robust_delay + 1
+
+
 @dataclass(frozen=True)
 class EvolutionConfig:
     """Everything that determines a run.  Same config (seed included) -> bit-identical run.
@@ -116,9 +124,7 @@ class EvolutionConfig:
     def robust_phase_start(self, first_solved: int | None) -> int | None:
         """The first generation scored by the robust evaluation, given the run's first solved generation (None:
         not yet known)."""
-        if self.robust_from == "start":
-            return 0
-        return None if first_solved is None else first_solved + self.robust_delay + 1
+        return robust_phase_start(self.robust_from, self.robust_delay, first_solved)
 
     @property
     def noise_free_evaluation(self) -> EvaluationSettings:
