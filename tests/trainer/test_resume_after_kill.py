@@ -12,7 +12,10 @@ import pytest
 from mahn_evo.training.config import EvolutionConfig
 from mahn_evo.training.trainer import Trainer
 
-ARGS = ["--generations", "8", "--pop", "30", "--seed", "5", "--quiet"]
+# A generation of this size takes about 10 ms, so the run is made long (about 2 s) and the poll fast: the kill
+# must land well before the last generation even on a loaded machine.
+GENERATIONS = 200
+ARGS = ["--generations", str(GENERATIONS), "--pop", "30", "--seed", "5", "--quiet"]
 
 
 def _rows(path):
@@ -35,11 +38,11 @@ def test_kill_then_resume_matches_uninterrupted_run(tmp_path):
                     break
             except (json.JSONDecodeError, KeyError):
                 pass  # never happens with atomic writes, but do not fail the test on a race here
-        time.sleep(0.05)
+        time.sleep(0.005)
     os.kill(proc.pid, signal.SIGKILL)
     proc.wait(timeout=30)
     done = json.loads(ckpt.read_text())["population"]["generation"]
-    assert 3 <= done < 8, "the kill should land mid-run"
+    assert 3 <= done < GENERATIONS, "the kill should land mid-run"
     subprocess.run(cli + ARGS + ["--out", str(tmp_path / "killed"), "--resume"], check=True, capture_output=True,
                    timeout=300)
     assert _rows(tmp_path / "killed") == _rows(tmp_path / "full")
