@@ -53,6 +53,12 @@ def _fidelity_and_robustness_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--robust-delay", type=int, metavar="G",
                    help="with --robust-from first_solution: G noise-free generations after the first solution "
                         "before the noisy ones, so the solution spreads through the population first (default 0)")
+    p.add_argument("--diversity", type=float, metavar="W",
+                   help="behavioural diversity: NEAT selects by fitness + W x the mean distance (cm) of a team's "
+                        "robot end positions to its nearest teams in the generation (default 0: fitness alone, as "
+                        "the paper); the task's fitness still picks champions and decides solved")
+    p.add_argument("--diversity-k", type=int, metavar="K",
+                   help="nearest teams the diversity bonus averages over (default 15)")
 
 
 def _train_parser(sub) -> None:
@@ -211,7 +217,7 @@ def experiment_plan(args: argparse.Namespace) -> ExperimentPlan:
               "noise": args.noise, "episodes": args.episodes, "noise_draws": args.noise_draws,
               "aggregate": args.aggregate, "quantile": args.quantile,
               "noise_free_episode": args.noise_free_episode, "robust_from": args.robust_from,
-              "robust_delay": args.robust_delay}
+              "robust_delay": args.robust_delay, "diversity": args.diversity, "diversity_k": args.diversity_k}
     # a preset or config file sets the evaluation fields (not the plan's scale: map and after_solved are flags)
     from_base = {k: getattr(base, k) for k in EVOLUTION_FIELDS if k in chosen and (args.preset or args.config)}
     if args.preset or args.config:
@@ -301,7 +307,8 @@ def cmd_train(args) -> int:
                      stop_when_solved=args.stop_when_solved, after_solved=args.after_solved,
                      cppn_activation=args.cppn_activation, decision=args.decision, noise_draws=args.noise_draws,
                      aggregate=args.aggregate,
-                     quantile=args.quantile, noise_free_episode=args.noise_free_episode)
+                     quantile=args.quantile, noise_free_episode=args.noise_free_episode,
+                     diversity=args.diversity, diversity_k=args.diversity_k)
     if args.resume and (args.out / "config.json").exists() and not args.config and not args.preset:
         from .storage.files import read_versioned_json
 

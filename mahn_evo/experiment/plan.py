@@ -24,7 +24,7 @@ PLAN_FILE = "experiment.json"
 
 #: the plan's fields that are EvolutionConfig fields of the same name, passed to every run as they are
 EVOLUTION_FIELDS = ("init", "evaluate_modules", "cppn_activation", "decision", "episodes", "noise_draws", "aggregate",
-                    "quantile", "noise_free_episode", "robust_from", "robust_delay", "map",
+                    "quantile", "noise_free_episode", "robust_from", "robust_delay", "diversity", "diversity_k", "map",
                     "after_solved")
 
 
@@ -49,6 +49,9 @@ class ExperimentPlan:
     #: "start" or "first_solution": robust evaluation from the first generation, or only after the first solution
     robust_from: str = "start"
     robust_delay: int = 0  # with robust_from "first_solution": noise-free generations after it first
+    #: behavioural-diversity selection (see EvolutionConfig.diversity): 0 selects by fitness alone
+    diversity: float = 0.0
+    diversity_k: int = 15
     map: str = "plus"
     after_solved: int = 50  # generations kept after the first solution, for the generalisation test
     top: int = 5  # most general solutions (from distinct runs) per mode that get the transfer tests

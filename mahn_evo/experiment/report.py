@@ -79,6 +79,14 @@ def _robust_text(plan: dict[str, Any]) -> str:
     return f"; {text}"
 
 
+def _selection_text(plan: dict[str, Any]) -> str:
+    """How NEAT selected, for the report's first line ('' for selection by fitness alone, as the paper)."""
+    if not plan.get("diversity"):
+        return ""
+    return (f"; NEAT selects by fitness + {plan['diversity']:g} x behavioural diversity (robot end positions, "
+            f"{plan.get('diversity_k', 15)} nearest teams)")
+
+
 def markdown(results: dict[str, Any]) -> str:
     plan, table, test = results["plan"], results["table"], results["fisher"]
     lines = ["# Experiment results", "",
@@ -86,7 +94,8 @@ def markdown(results: dict[str, Any]) -> str:
              f"{plan['seed'] + plan['runs'] - 1}); population {plan['population']}; at most {plan['generations']} "
              f"generations; init `{plan['init']}`"
              f"{' with Multiply modules evaluated' if plan['evaluate_modules'] else ''}"
-             f"; map `{plan['map']}`; episodes of {plan['max_cycles']} ticks{_robust_text(plan)}. Written by "
+             f"; map `{plan['map']}`; episodes of {plan['max_cycles']} ticks{_robust_text(plan)}"
+             f"{_selection_text(plan)}. Written by "
              "`mahn-evo experiment`.", "",
              "## Solved runs", "",
              "| mode | runs finished | in progress | solved | generations to solve: mean | sd | median | range | "

@@ -89,6 +89,9 @@ class Evaluation:
     fitness: np.ndarray  # (N,) team fitness: the episodes' fitness aggregated (mean, min or a quantile)
     solved: np.ndarray  # (N,) fraction of episodes solved
     controllers: TeamControllers  # batch (N, R, K, ...)
+    #: (N, R, 2) where each robot ends its episodes (x, y in cm, the mean over the team's episodes): the team's
+    #: behaviour, which behavioural-diversity selection compares (mahn_evo.training.diversity)
+    end_positions: np.ndarray | None = None
 
 
 CONTROLLER_FIELDS = ("w_ih", "w_hh", "w_ho", "b_h", "b_o")
@@ -148,7 +151,7 @@ class TeamEvaluator:
         self._clean_sims: dict[int, BatchSim] = {}
         #: genome -> (the batch it was decoded in, its row)
         self._decoded: GenerationMemo[tuple[TeamControllers, int]] = GenerationMemo()
-        self._scores: GenerationMemo[tuple[float, bool]] = GenerationMemo()
+        self._scores: GenerationMemo[tuple[float, bool, np.ndarray]] = GenerationMemo()
 
     def decode(self, genomes: Sequence) -> TeamControllers:
         """The genomes' team controllers (a batch, in order).  A genome decoded by the previous call (an elite, a
@@ -191,7 +194,14 @@ class TeamEvaluator:
         return list(range(first, first + k))
 
     def score(self, controllers: TeamControllers, generation: int = 0) -> tuple[np.ndarray, np.ndarray]:
-        """Aggregated fitness and solved fraction of each team over its keyed episodes.
+        """Aggregated fitness and solved fraction of each team over its keyed episodes (see `outcomes`)."""
+        fitness, solved, _ = self.outcomes(controllers, generation)
+        return fitness, solved
+
+    def outcomes(self, controllers: TeamControllers, generation: int = 0
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Aggregated fitness, solved fraction and mean end positions (N, R, 2) of each team over its keyed
+        episodes.
 
         Teams whose controllers are identical (elites carried over, duplicate offspring, genomes that decode to
         the same weights) are run once: every team meets the same keyed episodes, so their results are equal.
@@ -213,6 +223,7 @@ class TeamEvaluator:
             episodes.append((True, 0))
         fits = np.zeros((len(episodes), n))
         solved = np.zeros(n)
+        ends = np.zeros((n, ctrl.n_robots, 2))
         for e, (clean, key) in enumerate(episodes):
             todo = []
             for i, team in enumerate(teams):
@@ -220,16 +231,19 @@ class TeamEvaluator:
                 if known is None:
                     todo.append(i)
                 else:
-                    fits[e, i], solved_e = known
+                    fits[e, i], solved_e, end = known
                     solved[i] += solved_e
+                    ends[i] += end
             if todo:
                 run = ctrl if len(todo) == n else _rows(ctrl, np.array(todo))
                 sim = self._clean_sim(len(todo)) if clean else self._sim(len(todo))
                 res = sim.run_controllers(run, seed=s.seed, episode_keys=np.full(len(todo), key, dtype=np.int64))
+                end_xy = sim.pose[:, :, :2].copy()  # where the episodes left each robot
                 for j, i in enumerate(todo):
                     fits[e, i] = res.fitness[j]
                     solved[i] += res.solved[j]
-                    self._scores.put((teams[i], clean, key), (float(res.fitness[j]), bool(res.solved[j])))
+                    ends[i] += end_xy[j]
+                    self._scores.put((teams[i], clean, key), (float(res.fitness[j]), bool(res.solved[j]), end_xy[j]))
         if s.aggregate == "min":
             fit = fits.min(axis=0)
         elif s.aggregate == "quantile":
@@ -239,9 +253,9 @@ class TeamEvaluator:
             for e in range(fits.shape[0]):
                 fit += fits[e]
             fit = fit / fits.shape[0]
-        return fit[index], solved[index] / fits.shape[0]
+        return fit[index], solved[index] / fits.shape[0], ends[index] / fits.shape[0]
 
     def evaluate(self, genomes: Sequence, generation: int = 0) -> Evaluation:
         controllers = self.decode(genomes)
-        fitness, solved = self.score(controllers, generation)
-        return Evaluation(fitness, solved, controllers)
+        fitness, solved, ends = self.outcomes(controllers, generation)
+        return Evaluation(fitness, solved, controllers, ends)

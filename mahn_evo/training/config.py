@@ -81,6 +81,11 @@ class EvolutionConfig:
     #: runs' logs), which gives the robust phase solved variants to select among.  Hardening at once (0) lost the
     #: solution (docs/results/experiment_harden/).
     robust_delay: int = 0
+    #: weight of the behavioural-diversity bonus in NEAT's selection (mahn_evo.training.diversity): NEAT selects by
+    #: fitness + diversity * (mean distance in cm of the team's robot end positions to its `diversity_k` nearest
+    #: teams of the generation).  0 (the default, and the paper) selects by fitness alone.
+    diversity: float = 0.0
+    diversity_k: int = 15
     stop_when_solved: bool = False
     #: with stop_when_solved, generations still run after the first solution so the archive gathers the
     #: alternative solutions the generalisation test chooses among (0 = stop at once)
@@ -101,6 +106,11 @@ class EvolutionConfig:
                 raise ValueError(f"{name} must be a positive integer, got {v!r}")
         if isinstance(self.after_solved, bool) or not isinstance(self.after_solved, int) or self.after_solved < 0:
             raise ValueError(f"after_solved must be a non-negative integer, got {self.after_solved!r}")
+        if isinstance(self.diversity, bool) or not isinstance(self.diversity, (int, float)) \
+                or not 0.0 <= self.diversity < float("inf"):
+            raise ValueError(f"diversity must be a non-negative number, got {self.diversity!r}")
+        if isinstance(self.diversity_k, bool) or not isinstance(self.diversity_k, int) or self.diversity_k < 1:
+            raise ValueError(f"diversity_k must be a positive integer, got {self.diversity_k!r}")
         if self.robust_from not in ROBUST_FROM:
             raise ValueError(f"robust_from must be one of {ROBUST_FROM}, got {self.robust_from!r}")
         if isinstance(self.robust_delay, bool) or not isinstance(self.robust_delay, int) or self.robust_delay < 0:

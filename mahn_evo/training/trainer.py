@@ -42,6 +42,7 @@ from ..storage.files import (
 from ..storage.folder_lock import check_folder_usable
 from .champion import Champion
 from .config import EvolutionConfig
+from .diversity import selection_fitness
 
 #: settings that only decide when a run ends; they may change when a run is resumed (e.g. more generations)
 STOPPING_RULES = ("generations", "stop_when_solved", "after_solved")
@@ -201,7 +202,7 @@ class Trainer:
                 self.archived_fitness = float(ev.fitness[s_best])
                 self._champion(gen, genomes[s_best], ev, s_best).save(
                     self.out / "archive" / f"solution_g{gen:05d}_i{s_best:04d}.json")
-        stats = self.population.tell(ev.fitness)
+        stats = self.population.tell(selection_fitness(ev.fitness, ev.end_positions, cfg.diversity, cfg.diversity_k))
         seconds = time.perf_counter() - t0
         self.wall += seconds
         evaluations = (self.rows[-1][1] if self.rows else 0) + len(genomes) * episodes

@@ -54,19 +54,19 @@ def test_kill_then_resume_matches_uninterrupted_run(tmp_path):
 def test_archive_keeps_improving_solutions(tmp_path, monkeypatch):
     """Solved teams are archived when they beat the last archived one (fitness > 100 marks them solved)."""
     tr = Trainer(EvolutionConfig(generations=4, seed=0).with_overrides(pop=20), tmp_path)
-    real_score = tr.evaluator.score
+    real_outcomes = tr.evaluator.outcomes
     schedule = iter([105.0, 104.0, 110.0, 110.0])
 
-    def fake_score(controllers, generation=0):
-        fit, solved = real_score(controllers, generation)
+    def fake_outcomes(controllers, generation=0):
+        fit, solved, ends = real_outcomes(controllers, generation)
         top = next(schedule)
         fit = fit.copy()
         fit[3] = top
         solved = solved.copy()
         solved[3] = 1.0
-        return fit, solved
+        return fit, solved, ends
 
-    monkeypatch.setattr(tr.evaluator, "score", fake_score)
+    monkeypatch.setattr(tr.evaluator, "outcomes", fake_outcomes)
     summary = tr.run()
     archived = sorted(p.name for p in (tmp_path / "archive").iterdir())
     assert archived == ["solution_g00000_i0003.json", "solution_g00002_i0003.json"]
