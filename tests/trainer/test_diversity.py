@@ -1,4 +1,4 @@
-"""Behavioural-diversity selection: NEAT selects by fitness + weight x diversity; the task's fitness decides the rest."""
+"""Behavioural-diversity selection: NEAT selects by fitness + weight x diversity; the task fitness decides the rest."""
 from __future__ import annotations
 
 import json
@@ -23,7 +23,8 @@ def test_diversity_is_the_mean_distance_to_the_k_nearest_other_rows():
     assert behavioural_diversity(b, 99).tolist() == pytest.approx([5.0, 5.0, 25 / 3, 5.0])  # k capped at N - 1
     assert behavioural_diversity(b[:1], 15).tolist() == [0.0]
     # (N, R, 2) end positions are flattened per team
-    assert behavioural_diversity(b.reshape(2, 2, 2), 1).tolist() == pytest.approx([np.sqrt(6**2 + 8**2 + 3**2 + 4**2)] * 2)
+    teams = b.reshape(2, 2, 2)  # [[0, 0], [3, 4]] and [[6, 8], [0, 0]]
+    assert behavioural_diversity(teams, 1).tolist() == pytest.approx([np.sqrt(6**2 + 8**2 + 3**2 + 4**2)] * 2)
     with pytest.raises(ValueError, match="k must be a positive integer"):
         behavioural_diversity(b, 0)
 
