@@ -91,7 +91,7 @@ class Evaluation:
     controllers: TeamControllers  # batch (N, R, K, ...)
     #: (N, R, 2) where each robot ends its episodes (x, y in cm, the mean over the team's episodes): the team's
     #: behaviour, which behavioural-diversity selection compares (mahn_evo.training.diversity)
-    end_positions: np.ndarray | None = None
+    end_positions: np.ndarray
 
 
 CONTROLLER_FIELDS = ("w_ih", "w_hh", "w_ho", "b_h", "b_o")
