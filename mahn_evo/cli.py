@@ -12,7 +12,7 @@ from mahn_envs.core.controller import DECISIONS
 
 from .cppn import CPPN_ACTIVATIONS
 from .evaluation.task_setup import NOISE_PRESETS
-from .hyperneat.substrate import MODES
+from .hyperneat.substrate import MODES, SYMMETRIES
 from .hyperneat.team_evaluator import AGGREGATES, NOISE_DRAWS
 from .training.config import INITS, ROBUST_FROM, EvolutionConfig, load_config_file
 from .training.presets import PRESETS, apply_preset
@@ -34,6 +34,9 @@ def _fidelity_and_robustness_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--decision", choices=DECISIONS,
                    help="how outputs become actions: output (default: the original's winner-take-all on the output "
                         "sigmoids, which float32 saturates into exact ties) or net_input (on their net inputs)")
+    p.add_argument("--symmetry", choices=SYMMETRIES,
+                   help="none (default: each robot painted at its own z, as the paper) or mirror (the robot at -z "
+                        "gets the exact mirror image of the brains painted at +z: bilateral symmetry by construction)")
     p.add_argument("--noise", choices=sorted(NOISE_PRESETS),
                    help="task noise during training (default none); with --episodes K > 1 teams are scored on K "
                         "noisy episodes")
@@ -213,7 +216,7 @@ def experiment_plan(args: argparse.Namespace) -> ExperimentPlan:
     neat = {k: v for k, v in base.neat.to_dict().items() if v != EvolutionConfig().neat.to_dict().get(k)}
     d = ExperimentPlan()
     chosen = {"init": args.init, "evaluate_modules": args.evaluate_modules, "cppn_activation": args.cppn_activation,
-              "decision": args.decision,
+              "decision": args.decision, "symmetry": args.symmetry,
               "noise": args.noise, "episodes": args.episodes, "noise_draws": args.noise_draws,
               "aggregate": args.aggregate, "quantile": args.quantile,
               "noise_free_episode": args.noise_free_episode, "robust_from": args.robust_from,
@@ -305,7 +308,8 @@ def cmd_train(args) -> int:
     overrides = dict(mode=args.mode, generations=args.generations, pop=args.pop, seed=args.seed, init=args.init,
                      map=args.map, episodes=args.episodes, evaluate_modules=args.evaluate_modules,
                      stop_when_solved=args.stop_when_solved, after_solved=args.after_solved,
-                     cppn_activation=args.cppn_activation, decision=args.decision, noise_draws=args.noise_draws,
+                     cppn_activation=args.cppn_activation, decision=args.decision, symmetry=args.symmetry,
+                     noise_draws=args.noise_draws,
                      aggregate=args.aggregate,
                      quantile=args.quantile, noise_free_episode=args.noise_free_episode,
                      diversity=args.diversity, diversity_k=args.diversity_k)

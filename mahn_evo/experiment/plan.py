@@ -23,9 +23,9 @@ from ..training.config import INITS, EvolutionConfig
 PLAN_FILE = "experiment.json"
 
 #: the plan's fields that are EvolutionConfig fields of the same name, passed to every run as they are
-EVOLUTION_FIELDS = ("init", "evaluate_modules", "cppn_activation", "decision", "episodes", "noise_draws", "aggregate",
-                    "quantile", "noise_free_episode", "robust_from", "robust_delay", "diversity", "diversity_k", "map",
-                    "after_solved")
+EVOLUTION_FIELDS = ("init", "evaluate_modules", "cppn_activation", "decision", "symmetry", "episodes", "noise_draws",
+                    "aggregate", "quantile", "noise_free_episode", "robust_from", "robust_delay", "diversity",
+                    "diversity_k", "map", "after_solved")
 
 
 @dataclass(frozen=True)
@@ -39,6 +39,7 @@ class ExperimentPlan:
     evaluate_modules: bool = True
     cppn_activation: str = "recursive"
     decision: str = "output"
+    symmetry: str = "none"  # "mirror": bilateral symmetry by construction (see EvolutionConfig)
     #: robust evaluation (see EvolutionConfig): a task noise preset, episodes per team, their draws and aggregation
     noise: str = "none"
     episodes: int = 1

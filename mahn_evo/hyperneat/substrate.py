@@ -21,6 +21,14 @@ from mahn_envs.policies.team_controllers import N_INPUTS, TeamControllers
 from ..cppn.batch import evaluate_plans
 
 MODES = ("situational", "standard")
+#: How the robots' brains relate.  "none": each robot's brains are painted at its own z (the paper).  "mirror":
+#: bilateral symmetry by construction: robot r of the first half gets the exact mirror image of the brains painted
+#: for robot n-1-r (its partner at -z): inputs, hidden and output nodes reflected left to right (x -> -x), so it
+#: acts as its partner would in the mirrored world.  The seed genome's sign(z)*x modules aim at this; evolution
+#: breaks it with small z-dependent weights, and most unsolved runs then stall with one side robot returning home
+#: and its partner not (docs/results/screen/symmetry/).  Ties between left and right still go left for both (the
+#: decision rule is the original's), so a team that decides by such ties is not an exact mirror in behaviour.
+SYMMETRIES = ("none", "mirror")
 THRESHOLD = 0.2
 WEIGHT_RANGE = 3.0
 NORMALISED_SUM = 3.0  # a literal in the original, not WEIGHT_RANGE
@@ -235,7 +243,31 @@ def decode_outputs_numpy(outputs: np.ndarray, layout: QueryLayout, normalise: bo
                            b_h.astype(np.float32), b_o.astype(np.float32))
 
 
-def decode_population(plans: Sequence, mode: str, n_robots: int = 3, normalise: bool = True) -> TeamControllers:
+def mirrored_teams(ctrl: TeamControllers) -> TeamControllers:
+    """The batch with symmetry "mirror": robot r < n-1-r replaced by the mirror image of robot n-1-r.
+
+    Reflection reverses the six sensor inputs (the signal input stays), the hidden nodes and the outputs (left <->
+    right): the weight from node a to node b of the copy is the partner's weight from mirror(a) to mirror(b).
+    """
+    c = ctrl.as_batch()
+    w_ih, w_hh, w_ho, b_h, b_o = (np.array(getattr(c, f)) for f in ("w_ih", "w_hh", "w_ho", "b_h", "b_o"))
+    n_robots = w_ih.shape[1]
+    for r in range(n_robots // 2):
+        p = n_robots - 1 - r
+        w_ih[:, r, :, :, :6] = w_ih[:, p, :, ::-1, 5::-1]
+        w_ih[:, r, :, :, 6:] = w_ih[:, p, :, ::-1, 6:]
+        w_hh[:, r] = w_hh[:, p, :, ::-1, ::-1]
+        w_ho[:, r] = w_ho[:, p, :, ::-1, ::-1]
+        b_h[:, r] = b_h[:, p, :, ::-1]
+        b_o[:, r] = b_o[:, p, :, ::-1]
+    return TeamControllers(w_ih, w_hh, w_ho, b_h, b_o, c.decision)
+
+
+def decode_population(plans: Sequence, mode: str, n_robots: int = 3, normalise: bool = True,
+                      symmetry: str = "none") -> TeamControllers:
     """Compiled CPPN plans (one per genome) -> a batch of team controllers, one team per genome."""
+    if symmetry not in SYMMETRIES:
+        raise ValueError(f"symmetry must be one of {SYMMETRIES}, got {symmetry!r}")
     layout = query_layout(mode, n_robots)
-    return decode_outputs(evaluate_plans(plans, layout.queries), layout, normalise)
+    teams = decode_outputs(evaluate_plans(plans, layout.queries), layout, normalise)
+    return mirrored_teams(teams) if symmetry == "mirror" else teams

@@ -20,7 +20,7 @@ from mahn_envs.policies.team_controllers import TeamControllers
 from ..cppn import CPPN_ACTIVATIONS, compile_genome
 from ..neat.genome import Genome
 from .memo import GenerationMemo, genome_key
-from .substrate import MODES, decode_population
+from .substrate import MODES, SYMMETRIES, decode_population
 
 #: How a team's fitness is taken from its episodes: "fixed" draws (episode keys 0..K-1 every generation) or fresh
 #: draws per generation (keys g*K .. g*K+K-1, the same for every team of generation g: common random numbers).
@@ -54,6 +54,8 @@ class EvaluationSettings:
     #: how the networks' outputs become actions (mahn_envs.core.controller.DECISIONS): "output" (the original's
     #: winner-take-all on the sigmoids) or "net_input" (on their net inputs: no float32 saturation ties)
     decision: str = "output"
+    #: "none" (the paper) or "mirror": robots at -z get the mirror image of the brains painted at +z (SYMMETRIES)
+    symmetry: str = "none"
     noise_draws: str = "fixed"
     aggregate: str = "mean"
     #: the quantile of the episode fitnesses with aggregate "quantile"
@@ -66,7 +68,7 @@ class EvaluationSettings:
         if self.mode not in MODES:
             raise ValueError(f"mode must be one of {MODES}, got {self.mode!r}")
         for name, allowed in (("cppn_activation", CPPN_ACTIVATIONS), ("decision", DECISIONS),
-                              ("noise_draws", NOISE_DRAWS), ("aggregate", AGGREGATES)):
+                              ("symmetry", SYMMETRIES), ("noise_draws", NOISE_DRAWS), ("aggregate", AGGREGATES)):
             if getattr(self, name) not in allowed:
                 raise ValueError(f"{name} must be one of {allowed}, got {getattr(self, name)!r}")
         if isinstance(self.quantile, bool) or not isinstance(self.quantile, (int, float)) \
@@ -165,7 +167,7 @@ class TeamEvaluator:
                 todo[key] = g
         if todo:
             plans = [compile_genome(g, s.cppn_activation, s.evaluate_modules) for g in todo.values()]
-            fresh = decode_population(plans, s.mode, self.world.n_robots)
+            fresh = decode_population(plans, s.mode, self.world.n_robots, symmetry=s.symmetry)
             for i, key in enumerate(todo):
                 self._decoded.put(key, (fresh, i))
         rows: list[tuple[TeamControllers, int]] = []

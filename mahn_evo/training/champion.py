@@ -80,8 +80,10 @@ def _count(value: Any, field: str) -> int:
     return value
 
 
-#: the ways a run may have decoded its CPPNs (activation, evaluate_modules); a champion file does not say which
-DECODINGS = (("recursive", True), ("recursive", False), ("relax", True))
+#: the ways a run may have decoded its CPPNs (activation, evaluate_modules, symmetry); a champion file does not say
+#: which
+DECODINGS = tuple((activation, modules, symmetry) for symmetry in ("none", "mirror")
+                  for activation, modules in (("recursive", True), ("recursive", False), ("relax", True)))
 
 
 def _check_controllers_match_cppn(champ: Champion, where: str) -> None:
@@ -94,10 +96,10 @@ def _check_controllers_match_cppn(champ: Champion, where: str) -> None:
     if ctrl.batched or ctrl.mode != champ.mode:
         raise ValueError(f"{where}: its controllers are a {ctrl.mode} team{' batch' if ctrl.batched else ''}, but "
                          f"field 'mode' says {champ.mode!r}")
-    for activation, modules in DECODINGS:
+    for activation, modules, symmetry in DECODINGS:
         try:
             decoded = decode_population([compile_genome(champ.genome, activation, modules)], champ.mode,
-                                        ctrl.n_robots).team(0)
+                                        ctrl.n_robots, symmetry=symmetry).team(0)
         except (ValueError, IndexError, KeyError) as exc:
             raise ValueError(f"{where}: its CPPN cannot be decoded for mode {champ.mode!r} ({exc})") from exc
         if all(np.array_equal(getattr(decoded, f), getattr(ctrl, f)) for f in CONTROLLER_FIELDS):

@@ -44,7 +44,7 @@ class EvolutionConfig:
     """Everything that determines a run.  Same config (seed included) -> bit-identical run.
 
     The fields that say how genomes are scored (mode, map, task, episodes, seed, evaluate_modules, cppn_activation,
-    decision, noise_draws, aggregate, quantile, noise_free_episode) are those of the evaluator's
+    decision, symmetry, noise_draws, aggregate, quantile, noise_free_episode) are those of the evaluator's
     `EvaluationSettings`, which checks them; `evaluation` builds that record.  They stay flat here, as config.json
     has always held them.
     """
@@ -65,6 +65,9 @@ class EvolutionConfig:
     #: "output": the original's winner-take-all on the output sigmoids; "net_input": on their net inputs, so no
     #: decision rests on a float32 saturation tie (see mahn_envs.core.controller.DECISIONS)
     decision: str = "output"
+    #: "none" (the paper) or "mirror": bilateral symmetry by construction, the robots at -z get the mirror image of
+    #: the brains painted at +z (mahn_evo.hyperneat.substrate.SYMMETRIES)
+    symmetry: str = "none"
     #: episodes per team per generation; with noise in `task` (robust evaluation) see TeamEvaluator
     episodes: int = 1
     noise_draws: str = "fixed"

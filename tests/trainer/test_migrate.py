@@ -133,7 +133,7 @@ V2_NEAT_DEFAULTS = {
 }
 V2_TRAIN_DEFAULTS = {
     "mode": "situational", "generations": 1000, "seed": 0, "init": "iros2011", "map": "plus",
-    "evaluate_modules": True, "cppn_activation": "recursive", "decision": "output",
+    "evaluate_modules": True, "cppn_activation": "recursive", "decision": "output", "symmetry": "none",
     "episodes": 1, "noise_draws": "fixed",
     "aggregate": "mean", "quantile": 0.25, "noise_free_episode": False, "robust_from": "start", "robust_delay": 0,
     "diversity": 0.0, "diversity_k": 15, "stop_when_solved": False,
