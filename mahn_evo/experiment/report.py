@@ -80,11 +80,15 @@ def _robust_text(plan: dict[str, Any]) -> str:
 
 
 def _selection_text(plan: dict[str, Any]) -> str:
-    """How NEAT selected, for the report's first line ('' for selection by fitness alone, as the paper)."""
-    if not plan.get("diversity"):
-        return ""
-    return (f"; NEAT selects by fitness + {plan['diversity']:g} x behavioural diversity (robot end positions, "
-            f"{plan.get('diversity_k', 15)} nearest teams)")
+    """The team's symmetry and how NEAT selected, for the report's first line ('' for the paper's: robots painted
+    at their own z, selection by fitness alone)."""
+    text = ""
+    if plan.get("symmetry", "none") == "mirror":
+        text += "; robot 0 the mirror image of robot 2 (`--symmetry mirror`)"
+    if plan.get("diversity"):
+        text += (f"; NEAT selects by fitness + {plan['diversity']:g} x behavioural diversity (robot end positions, "
+                 f"{plan.get('diversity_k', 15)} nearest teams)")
+    return text
 
 
 def markdown(results: dict[str, Any]) -> str:
