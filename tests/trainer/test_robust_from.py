@@ -154,11 +154,12 @@ def test_the_hardened_preset_reproduces_the_published_hardening_experiment():
     from mahn_evo.cli import build_parser, experiment_plan
 
     published = ExperimentPlan.load(Path(__file__).parents[2] / "docs" / "results" / "experiment_harden")
-    args = build_parser().parse_args(["experiment", "--modes", "situational", "--preset", "hardened",
+    args = build_parser().parse_args(["experiment", "--modes", "situational", "standard", "--preset", "hardened",
                                       "--after-solved", "250"])
     assert experiment_plan(args) == published
     spelled_out = build_parser().parse_args([
-        "experiment", "--modes", "situational", "--preset", "iros2011-multistep", "--noise", "generalization",
+        "experiment", "--modes", "situational", "standard", "--preset", "iros2011-multistep", "--noise",
+        "generalization",
         "--episodes", "3", "--noise-draws", "per_generation", "--noise-free-episode", "--aggregate", "mean",
         "--robust-from", "first_solution", "--robust-delay", "50", "--after-solved", "250"])
     assert experiment_plan(spelled_out) == published
