@@ -62,6 +62,9 @@ def _fidelity_and_robustness_options(p: argparse.ArgumentParser) -> None:
                         "the paper); the task's fitness still picks champions and decides solved")
     p.add_argument("--diversity-k", type=int, metavar="K",
                    help="nearest teams the diversity bonus averages over (default 15)")
+    p.add_argument("--restart-every", type=int, metavar="G",
+                   help="until the first solution, start from a fresh population every G generations (default 0: "
+                        "never, as the paper); the generation count and the champion carry on")
 
 
 def _train_parser(sub) -> None:
@@ -220,7 +223,8 @@ def experiment_plan(args: argparse.Namespace) -> ExperimentPlan:
               "noise": args.noise, "episodes": args.episodes, "noise_draws": args.noise_draws,
               "aggregate": args.aggregate, "quantile": args.quantile,
               "noise_free_episode": args.noise_free_episode, "robust_from": args.robust_from,
-              "robust_delay": args.robust_delay, "diversity": args.diversity, "diversity_k": args.diversity_k}
+              "robust_delay": args.robust_delay, "diversity": args.diversity, "diversity_k": args.diversity_k,
+              "restart_every": args.restart_every}
     # a preset or config file sets the evaluation fields (not the plan's scale: map and after_solved are flags)
     from_base = {k: getattr(base, k) for k in EVOLUTION_FIELDS if k in chosen and (args.preset or args.config)}
     if args.preset or args.config:
@@ -312,7 +316,7 @@ def cmd_train(args) -> int:
                      noise_draws=args.noise_draws,
                      aggregate=args.aggregate,
                      quantile=args.quantile, noise_free_episode=args.noise_free_episode,
-                     diversity=args.diversity, diversity_k=args.diversity_k)
+                     diversity=args.diversity, diversity_k=args.diversity_k, restart_every=args.restart_every)
     if args.resume and (args.out / "config.json").exists() and not args.config and not args.preset:
         from .storage.files import read_versioned_json
 

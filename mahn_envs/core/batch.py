@@ -125,7 +125,10 @@ class BatchSim:
 
     def _task(self) -> tuple:
         """The kernels' `task` group: the parameter vector, the seed and the episode keys."""
-        return (self._pvec, self.seed, self.keys)
+        # the kernels take the seed as a 64-bit signed integer and mix it as uint64 (core.rng): seeds of 2**63 and
+        # above are passed as the signed integer with the same bits
+        seed = self.seed - 2**64 if self.seed >= 2**63 else self.seed
+        return (self._pvec, seed, self.keys)
 
     # ------------------------------------------------------------------ episode control
     def start_poses(self, seed: int, episode_keys: np.ndarray) -> np.ndarray:

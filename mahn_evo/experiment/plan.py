@@ -25,7 +25,7 @@ PLAN_FILE = "experiment.json"
 #: the plan's fields that are EvolutionConfig fields of the same name, passed to every run as they are
 EVOLUTION_FIELDS = ("init", "evaluate_modules", "cppn_activation", "decision", "symmetry", "episodes", "noise_draws",
                     "aggregate", "quantile", "noise_free_episode", "robust_from", "robust_delay", "diversity",
-                    "diversity_k", "map", "after_solved")
+                    "diversity_k", "restart_every", "map", "after_solved")
 
 
 @dataclass(frozen=True)
@@ -53,6 +53,7 @@ class ExperimentPlan:
     #: behavioural-diversity selection (see EvolutionConfig.diversity): 0 selects by fitness alone
     diversity: float = 0.0
     diversity_k: int = 15
+    restart_every: int = 0  # a fresh population every G generations until the first solution (EvolutionConfig)
     map: str = "plus"
     after_solved: int = 50  # generations kept after the first solution, for the generalisation test
     top: int = 5  # most general solutions (from distinct runs) per mode that get the transfer tests

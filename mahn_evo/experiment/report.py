@@ -85,6 +85,8 @@ def _selection_text(plan: dict[str, Any]) -> str:
     text = ""
     if plan.get("symmetry", "none") == "mirror":
         text += "; robot 0 the mirror image of robot 2 (`--symmetry mirror`)"
+    if plan.get("restart_every"):
+        text += f"; a fresh population every {plan['restart_every']} generations until the first solution"
     if plan.get("diversity"):
         text += (f"; NEAT selects by fitness + {plan['diversity']:g} x behavioural diversity (robot end positions, "
                  f"{plan.get('diversity_k', 15)} nearest teams)")

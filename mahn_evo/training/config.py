@@ -12,6 +12,8 @@ from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from mahn_envs.core import TaskParams
 from mahn_envs.jsonfile import read_text_file
 
@@ -89,6 +91,11 @@ class EvolutionConfig:
     #: teams of the generation).  0 (the default, and the paper) selects by fitness alone.
     diversity: float = 0.0
     diversity_k: int = 15
+    #: while no team has solved the task, replace the population by a fresh initial one every `restart_every`
+    #: generations (0: never, as the paper).  Runs that solve, solve early or not for hundreds of generations (the
+    #: plateau of docs/results/screen/), so several short attempts beat one long one; the generation count and the
+    #: champion carry on across restarts.  Each restart's population is seeded from (seed, generation).
+    restart_every: int = 0
     stop_when_solved: bool = False
     #: with stop_when_solved, generations still run after the first solution so the archive gathers the
     #: alternative solutions the generalisation test chooses among (0 = stop at once)
@@ -112,6 +119,8 @@ class EvolutionConfig:
         if isinstance(self.diversity, bool) or not isinstance(self.diversity, (int, float)) \
                 or not 0.0 <= self.diversity < float("inf"):
             raise ValueError(f"diversity must be a non-negative number, got {self.diversity!r}")
+        if isinstance(self.restart_every, bool) or not isinstance(self.restart_every, int) or self.restart_every < 0:
+            raise ValueError(f"restart_every must be a non-negative integer, got {self.restart_every!r}")
         if isinstance(self.diversity_k, bool) or not isinstance(self.diversity_k, int) or self.diversity_k < 1:
             raise ValueError(f"diversity_k must be a positive integer, got {self.diversity_k!r}")
         if self.robust_from not in ROBUST_FROM:
@@ -138,6 +147,16 @@ class EvolutionConfig:
         """The first generation scored by the robust evaluation, given the run's first solved generation (None:
         not yet known)."""
         return robust_phase_start(self.robust_from, self.robust_delay, first_solved)
+
+    def restart_due(self, generation: int, first_solved: int | None) -> bool:
+        """Whether `generation` starts from a fresh population (restart_every): a multiple of it, no solution yet."""
+        return (self.restart_every > 0 and first_solved is None and generation > 0
+                and generation % self.restart_every == 0)
+
+    def restart_seed(self, generation: int) -> int:
+        """The seed of the fresh population that starts `generation`: drawn from (seed, generation), so a run's
+        every random choice still follows from its one seed and a resumed run restarts identically."""
+        return int(np.random.SeedSequence(self.seed, spawn_key=(generation,)).generate_state(1, np.uint64)[0])
 
     @property
     def noise_free_evaluation(self) -> EvaluationSettings:

@@ -11,7 +11,8 @@ Run folder:
   archive/         every solved champion that improved on the last archived one (the generalisation test
                    picks among all solutions a run found)
   summary.json     mode, seed, generations, best_fitness, solved, first_solved_generation, wall time (and, with
-                   robust_from "first_solution", robust_from_generation: the first generation scored under noise)
+                   robust_from "first_solution", robust_from_generation: the first generation scored under noise;
+                   with restart_every, restarts: the generations that started from a fresh population)
   fitness.png      the fitness curve
 
 A fresh run refuses a folder that holds another run (--overwrite removes it first); `mahn-evo train` and each
@@ -178,6 +179,8 @@ class Trainer:
         """Evaluate the current generation, record it, and breed the next."""
         t0 = time.perf_counter()
         cfg = self.config
+        if cfg.restart_due(self.population.generation, self.first_solved):
+            self._restart()
         genomes = self.population.ask()
         gen = self.population.generation
         evaluator, episodes = self.evaluator, cfg.episodes
@@ -217,6 +220,15 @@ class Trainer:
                         float(self.best_fitness), stats.n_species, bool(solved_mask[best]), self.first_solved,
                         seconds)
 
+    def _restart(self) -> None:
+        """A fresh initial population for the current generation (restart_every); the champion, the log and the
+        generation count carry on."""
+        gen = self.population.generation
+        cfg = self.config
+        self.population = Population.create(cfg.neat, seed=cfg.restart_seed(gen), kind=cfg.init,
+                                            n_inputs=cfg.n_cppn_inputs)
+        self.population.generation = gen
+
     def _champion(self, gen: int, genome: Genome, ev, index: int) -> Champion:
         return Champion(mode=self.config.mode, fitness=float(ev.fitness[index]), solved=bool(ev.solved[index] >= 1),
                         generation=gen, genome=genome, controllers=ev.controllers.team(index),
@@ -254,6 +266,10 @@ class Trainer:
                    "best_fitness": None if not np.isfinite(self.best_fitness) else self.best_fitness,
                    "solved": self.first_solved is not None, "first_solved_generation": self.first_solved,
                    "evaluations": self.rows[-1][1] if self.rows else 0, "wall_seconds": round(self.wall, 3)}
+        if self.config.restart_every:
+            summary["restarts"] = [g for g in range(self.config.restart_every, self.generation,
+                                                    self.config.restart_every)
+                                   if self.first_solved is None or g <= self.first_solved]
         if self.config.robust_from == "first_solution":
             summary["robust_from_generation"] = self.config.robust_phase_start(self.first_solved)
         atomic_write_json(self.out / "summary.json", summary)

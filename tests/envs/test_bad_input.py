@@ -167,3 +167,17 @@ def test_seeds_negative_non_integer_or_wider_than_64_bits(env, seed, error):
         env.reset(seed=seed)
     with pytest.raises(error, match="seed"):
         BatchSim("plus", 1).reset(seed)
+
+
+def test_seeds_of_2_to_the_63_and_above_run_and_draw_their_own_noise():
+    """The kernels take the seed as a signed 64-bit integer; the upper half of the allowed range must run too (it
+    overflowed once), with noise of its own."""
+    from mahn_evo.evaluation.task_setup import task_params
+
+    fits = []
+    for seed in (5, 2**63 + 5, 2**64 - 1):
+        sim = BatchSim("plus", 2, task_params("generalization"))
+        fits.append(sim.run_random(seed=seed).fitness.tolist())
+    assert fits[0] != fits[1] != fits[2]
+    again = BatchSim("plus", 2, task_params("generalization")).run_random(seed=2**63 + 5).fitness.tolist()
+    assert again == fits[1]
