@@ -35,8 +35,9 @@ def _fidelity_and_robustness_options(p: argparse.ArgumentParser) -> None:
                    help="how outputs become actions: output (default: the original's winner-take-all on the output "
                         "sigmoids, which float32 saturates into exact ties) or net_input (on their net inputs)")
     p.add_argument("--symmetry", choices=SYMMETRIES,
-                   help="none (default: each robot painted at its own z, as the paper) or mirror (the robot at -z "
-                        "gets the exact mirror image of the brains painted at +z: bilateral symmetry by construction)")
+                   help="none (default: each robot painted at its own z, as the paper), mirror (the robot at -z "
+                        "gets the exact mirror image of the brains painted at +z: bilateral symmetry by construction) "
+                        "or best (each team scored as painted and in both mirror readings; the best counts)")
     p.add_argument("--noise", choices=sorted(NOISE_PRESETS),
                    help="task noise during training (default none); with --episodes K > 1 teams are scored on K "
                         "noisy episodes")

@@ -85,6 +85,8 @@ def _selection_text(plan: dict[str, Any]) -> str:
     text = ""
     if plan.get("symmetry", "none") == "mirror":
         text += "; robot 0 the mirror image of robot 2 (`--symmetry mirror`)"
+    elif plan.get("symmetry", "none") == "best":
+        text += "; each team scored as painted and in both mirror readings, the best counts (`--symmetry best`)"
     if plan.get("restart_every"):
         text += f"; a fresh population every {plan['restart_every']} generations until the first solution"
     if plan.get("diversity"):

@@ -28,7 +28,13 @@ MODES = ("situational", "standard")
 #: breaks it with small z-dependent weights, and most unsolved runs then stall with one side robot returning home
 #: and its partner not (docs/results/screen/symmetry/).  Ties between left and right still go left for both (the
 #: decision rule is the original's), so a team that decides by such ties is not an exact mirror in behaviour.
-SYMMETRIES = ("none", "mirror")
+#: "best": every team is scored as painted and in both mirror readings (the -z robots mirrored from the +z ones, and
+#: the +z robots from the -z ones), and counts as the best of the three (the first on ties, in that order); a
+#: plateau team whose one side robot comes home is then also scored with that robot's mirror image in its
+#: partner's place (three episodes per team).
+SYMMETRIES = ("none", "mirror", "best")
+#: the team readings `symmetry="best"` scores, in order: as painted, mirrored from +z, mirrored from -z
+READINGS = ("none", "mirror", "mirror_minus")
 THRESHOLD = 0.2
 WEIGHT_RANGE = 3.0
 NORMALISED_SUM = 3.0  # a literal in the original, not WEIGHT_RANGE
@@ -243,8 +249,9 @@ def decode_outputs_numpy(outputs: np.ndarray, layout: QueryLayout, normalise: bo
                            b_h.astype(np.float32), b_o.astype(np.float32))
 
 
-def mirrored_teams(ctrl: TeamControllers) -> TeamControllers:
-    """The batch with symmetry "mirror": robot r < n-1-r replaced by the mirror image of robot n-1-r.
+def mirrored_teams(ctrl: TeamControllers, from_minus: bool = False) -> TeamControllers:
+    """The batch with symmetry "mirror": robot r < n-1-r replaced by the mirror image of robot n-1-r (with
+    `from_minus`, the other way round: robot n-1-r replaced by the mirror image of robot r).
 
     Reflection reverses the six sensor inputs (the signal input stays), the hidden nodes and the outputs (left <->
     right): the weight from node a to node b of the copy is the partner's weight from mirror(a) to mirror(b).
@@ -252,8 +259,8 @@ def mirrored_teams(ctrl: TeamControllers) -> TeamControllers:
     c = ctrl.as_batch()
     w_ih, w_hh, w_ho, b_h, b_o = (np.array(getattr(c, f)) for f in ("w_ih", "w_hh", "w_ho", "b_h", "b_o"))
     n_robots = w_ih.shape[1]
-    for r in range(n_robots // 2):
-        p = n_robots - 1 - r
+    for low in range(n_robots // 2):
+        r, p = (n_robots - 1 - low, low) if from_minus else (low, n_robots - 1 - low)
         w_ih[:, r, :, :, :6] = w_ih[:, p, :, ::-1, 5::-1]
         w_ih[:, r, :, :, 6:] = w_ih[:, p, :, ::-1, 6:]
         w_hh[:, r] = w_hh[:, p, :, ::-1, ::-1]
@@ -263,9 +270,17 @@ def mirrored_teams(ctrl: TeamControllers) -> TeamControllers:
     return TeamControllers(w_ih, w_hh, w_ho, b_h, b_o, c.decision)
 
 
+def team_reading(ctrl: TeamControllers, reading: str) -> TeamControllers:
+    """The batch as painted ("none") or in one of its mirror readings ("mirror", "mirror_minus"; READINGS)."""
+    if reading not in READINGS:
+        raise ValueError(f"reading must be one of {READINGS}, got {reading!r}")
+    return ctrl if reading == "none" else mirrored_teams(ctrl, from_minus=reading == "mirror_minus")
+
+
 def decode_population(plans: Sequence, mode: str, n_robots: int = 3, normalise: bool = True,
                       symmetry: str = "none") -> TeamControllers:
-    """Compiled CPPN plans (one per genome) -> a batch of team controllers, one team per genome."""
+    """Compiled CPPN plans (one per genome) -> a batch of team controllers, one team per genome (with symmetry
+    "best", as painted: the evaluator scores its mirror readings)."""
     if symmetry not in SYMMETRIES:
         raise ValueError(f"symmetry must be one of {SYMMETRIES}, got {symmetry!r}")
     layout = query_layout(mode, n_robots)

@@ -20,7 +20,7 @@ from mahn_envs.policies.team_controllers import TeamControllers
 from ..cppn import CPPN_ACTIVATIONS, compile_genome
 from ..neat.genome import Genome
 from .memo import GenerationMemo, genome_key
-from .substrate import MODES, SYMMETRIES, decode_population
+from .substrate import MODES, READINGS, SYMMETRIES, decode_population, team_reading
 
 #: How a team's fitness is taken from its episodes: "fixed" draws (episode keys 0..K-1 every generation) or fresh
 #: draws per generation (keys g*K .. g*K+K-1, the same for every team of generation g: common random numbers).
@@ -54,7 +54,8 @@ class EvaluationSettings:
     #: how the networks' outputs become actions (mahn_envs.core.controller.DECISIONS): "output" (the original's
     #: winner-take-all on the sigmoids) or "net_input" (on their net inputs: no float32 saturation ties)
     decision: str = "output"
-    #: "none" (the paper) or "mirror": robots at -z get the mirror image of the brains painted at +z (SYMMETRIES)
+    #: "none" (the paper), "mirror" (robots at -z get the mirror image of the brains painted at +z) or "best" (each
+    #: team scored as painted and in both mirror readings, the best counts): see substrate.SYMMETRIES
     symmetry: str = "none"
     noise_draws: str = "fixed"
     aggregate: str = "mean"
@@ -257,7 +258,21 @@ class TeamEvaluator:
             fit = fit / fits.shape[0]
         return fit[index], solved[index] / fits.shape[0], ends[index] / fits.shape[0]
 
+    @property
+    def readings(self) -> int:
+        """Teams scored per genome: 3 with symmetry "best" (as painted and both mirror readings), else 1."""
+        return len(READINGS) if self.settings.symmetry == "best" else 1
+
     def evaluate(self, genomes: Sequence, generation: int = 0) -> Evaluation:
         controllers = self.decode(genomes)
-        fitness, solved, ends = self.outcomes(controllers, generation)
-        return Evaluation(fitness, solved, controllers, ends)
+        if self.settings.symmetry != "best":
+            fitness, solved, ends = self.outcomes(controllers, generation)
+            return Evaluation(fitness, solved, controllers, ends)
+        # every reading of every genome in one batch; a genome counts as its best reading (the first on ties)
+        n = len(genomes)
+        readings = [team_reading(controllers, r) for r in READINGS]
+        batch = TeamControllers.stack([t.team(i) for t in readings for i in range(n)])
+        fitness, solved, ends = self.outcomes(batch, generation)
+        best = np.argmax(fitness.reshape(len(READINGS), n), axis=0)
+        rows = best * n + np.arange(n)
+        return Evaluation(fitness[rows], solved[rows], _rows(batch, rows), ends[rows])

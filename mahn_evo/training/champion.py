@@ -80,29 +80,30 @@ def _count(value: Any, field: str) -> int:
     return value
 
 
-#: the ways a run may have decoded its CPPNs (activation, evaluate_modules, symmetry); a champion file does not say
-#: which
-DECODINGS = tuple((activation, modules, symmetry) for symmetry in ("none", "mirror")
-                  for activation, modules in (("recursive", True), ("recursive", False), ("relax", True)))
+#: the ways a run may have decoded its CPPNs (activation, evaluate_modules); a champion file does not say which.
+#: Its team may also be a mirror reading of the decoded one (substrate.READINGS: symmetry "mirror" or "best").
+DECODINGS = (("recursive", True), ("recursive", False), ("relax", True))
 
 
 def _check_controllers_match_cppn(champ: Champion, where: str) -> None:
     """The stored controllers must be what the CPPN decodes to under one of the run settings that decide decoding
-    (DECODINGS), or the file mixes two teams or was edited."""
+    (DECODINGS, READINGS), or the file mixes two teams or was edited."""
     from ..cppn import compile_genome
-    from ..hyperneat.substrate import decode_population
+    from ..hyperneat.substrate import READINGS, decode_population, team_reading
 
     ctrl = champ.controllers
     if ctrl.batched or ctrl.mode != champ.mode:
         raise ValueError(f"{where}: its controllers are a {ctrl.mode} team{' batch' if ctrl.batched else ''}, but "
                          f"field 'mode' says {champ.mode!r}")
-    for activation, modules, symmetry in DECODINGS:
+    for activation, modules in DECODINGS:
         try:
-            decoded = decode_population([compile_genome(champ.genome, activation, modules)], champ.mode,
-                                        ctrl.n_robots, symmetry=symmetry).team(0)
+            painted = decode_population([compile_genome(champ.genome, activation, modules)], champ.mode,
+                                        ctrl.n_robots)
         except (ValueError, IndexError, KeyError) as exc:
             raise ValueError(f"{where}: its CPPN cannot be decoded for mode {champ.mode!r} ({exc})") from exc
-        if all(np.array_equal(getattr(decoded, f), getattr(ctrl, f)) for f in CONTROLLER_FIELDS):
-            return
+        for reading in READINGS:
+            decoded = team_reading(painted, reading).team(0)
+            if all(np.array_equal(getattr(decoded, f), getattr(ctrl, f)) for f in CONTROLLER_FIELDS):
+                return
     raise ValueError(f"{where}: field 'controllers' does not match what field 'cppn' decodes to (the file was "
                      "edited, or mixes two teams)")

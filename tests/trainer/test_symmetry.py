@@ -74,3 +74,49 @@ def test_a_mirror_run_trains_saves_a_loadable_champion_and_records_the_setting(t
     assert (plan.symmetry, plan.cppn_activation) == ("mirror", "relax")
     assert plan.train_config("situational", 1).evaluation.symmetry == "mirror"
     assert "mirror image of robot 2" in _selection_text(plan.to_dict())
+
+
+def test_best_scores_every_reading_and_keeps_the_best_team(tmp_path):
+    from mahn_evo.hyperneat.substrate import READINGS, team_reading
+    from mahn_evo.hyperneat.team_evaluator import TeamEvaluator
+
+    genomes = _genomes(tmp_path, n=10)
+    best = TeamEvaluator(EvaluationSettings(symmetry="best"))
+    plain = TeamEvaluator(EvaluationSettings())
+    ev = best.evaluate(genomes)
+    painted = plain.decode(genomes)
+    per_reading = np.array([plain.score(team_reading(painted, r))[0] for r in READINGS])
+    assert ev.fitness.tolist() == per_reading.max(axis=0).tolist()
+    assert best.readings == 3 and plain.readings == 1
+    for i in range(len(genomes)):
+        chosen = READINGS[int(np.argmax(per_reading[:, i]))]  # the first reading on ties
+        team = team_reading(painted, chosen).team(i)
+        assert np.array_equal(ev.controllers.team(i).w_ih, team.w_ih)
+
+
+def test_a_best_run_counts_three_teams_per_genome_and_its_champion_loads(tmp_path):
+    out = tmp_path / "run"
+    assert main(["train", "--generations", "3", "--pop", "16", "--seed", "2", "--symmetry", "best",
+                 "--out", str(out), "--quiet"]) == 0
+    assert json.loads((out / "summary.json").read_text())["evaluations"] == 3 * 16 * 3
+    Champion.load(out / "champion.json")  # whichever reading it is, it matches its CPPN
+
+
+def test_a_champion_may_hold_any_mirror_reading_of_its_cppn_but_not_another_team(tmp_path):
+    from dataclasses import replace
+
+    from mahn_evo.hyperneat.substrate import team_reading
+
+    out = tmp_path / "run"
+    assert main(["train", "--generations", "2", "--pop", "12", "--seed", "5", "--init", "minimal", "--out", str(out),
+                 "--quiet"]) == 0
+    champ = Champion.load(out / "champion.json")
+    for reading in ("mirror", "mirror_minus"):
+        flipped = team_reading(champ.controllers.as_batch(), reading).team(0)
+        replace(champ, controllers=flipped).save(tmp_path / f"{reading}.json")
+        Champion.load(tmp_path / f"{reading}.json")
+    c = champ.controllers
+    swapped = c.map_arrays(lambda a: a[[2, 1, 0]])  # robots 0 and 2 exchanged: no reading of the CPPN
+    replace(champ, controllers=swapped).save(tmp_path / "swapped.json")
+    with pytest.raises(ValueError, match="does not match what field 'cppn' decodes to"):
+        Champion.load(tmp_path / "swapped.json")
