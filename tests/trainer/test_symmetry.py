@@ -120,3 +120,15 @@ def test_a_champion_may_hold_any_mirror_reading_of_its_cppn_but_not_another_team
     replace(champ, controllers=swapped).save(tmp_path / "swapped.json")
     with pytest.raises(ValueError, match="does not match what field 'cppn' decodes to"):
         Champion.load(tmp_path / "swapped.json")
+
+
+def test_the_published_mirror_readings_experiment_is_the_documented_command():
+    from pathlib import Path
+
+    from mahn_evo.experiment.plan import ExperimentPlan
+
+    published = ExperimentPlan.load(Path(__file__).parents[2] / "docs" / "results" / "experiment_best")
+    args = build_parser().parse_args(["experiment", "--modes", "situational", "--runs", "15", "--seed", "1",
+                                      "--generations", "1000", "--after-solved", "50", "--preset",
+                                      "iros2011-multistep", "--symmetry", "best"])
+    assert experiment_plan(args) == published
