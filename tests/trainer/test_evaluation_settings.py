@@ -16,8 +16,8 @@ def test_a_default_run_evaluates_with_the_default_settings():
 
 def test_a_run_hands_its_evaluation_fields_to_the_evaluator(tmp_path):
     cfg = EvolutionConfig(mode="standard", map="asymmetric_plus", seed=7, episodes=3, evaluate_modules=False,
-                          decision="net_input", symmetry="best", noise_draws="per_generation", aggregate="quantile", quantile=0.5,
-                          noise_free_episode=True, generations=1).with_noise("generalization")
+                          decision="net_input", symmetry="best", noise_draws="per_generation", aggregate="quantile",
+                          quantile=0.5, noise_free_episode=True, generations=1).with_noise("generalization")
     ev = cfg.evaluation
     assert {f.name: getattr(ev, f.name) for f in dataclasses.fields(ev)} == {
         "mode": "standard", "map": "asymmetric_plus", "task": cfg.task, "episodes": 3, "seed": 7,
