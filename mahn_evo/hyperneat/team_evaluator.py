@@ -271,7 +271,8 @@ class TeamEvaluator:
         # every reading of every genome in one batch; a genome counts as its best reading (the first on ties)
         n = len(genomes)
         readings = [team_reading(controllers, r) for r in READINGS]
-        batch = TeamControllers.stack([t.team(i) for t in readings for i in range(n)])
+        w_ih, w_hh, w_ho, b_h, b_o = (np.concatenate([getattr(t, f) for t in readings]) for f in CONTROLLER_FIELDS)
+        batch = TeamControllers(w_ih, w_hh, w_ho, b_h, b_o, controllers.decision)
         fitness, solved, ends = self.outcomes(batch, generation)
         best = np.argmax(fitness.reshape(len(READINGS), n), axis=0)
         rows = best * n + np.arange(n)
