@@ -50,6 +50,10 @@ def _fidelity_and_robustness_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--noise-free-episode", action="store_true", default=None,
                    help="with --noise: also score every team on one noise-free episode, aggregated with the noisy "
                         "ones (a team must work with and without noise)")
+    p.add_argument("--map-spread", type=float, metavar="S",
+                   help="map plus only: play each keyed (noisy) episode on a plus variant whose left, top and right "
+                        "arms are the plus map's times factors drawn from [1-S, 1+S] per episode (default 0: the "
+                        "map itself); the noise-free episode stays on the plus map")
     p.add_argument("--robust-from", choices=ROBUST_FROM,
                    help="with --noise: start (default: every generation is scored under noise) or first_solution "
                         "(noise-free, exactly the run without noise, until the first solution; the generations "
@@ -223,7 +227,8 @@ def experiment_plan(args: argparse.Namespace) -> ExperimentPlan:
               "decision": args.decision, "symmetry": args.symmetry,
               "noise": args.noise, "episodes": args.episodes, "noise_draws": args.noise_draws,
               "aggregate": args.aggregate, "quantile": args.quantile,
-              "noise_free_episode": args.noise_free_episode, "robust_from": args.robust_from,
+              "noise_free_episode": args.noise_free_episode, "map_spread": args.map_spread,
+              "robust_from": args.robust_from,
               "robust_delay": args.robust_delay, "diversity": args.diversity, "diversity_k": args.diversity_k,
               "restart_every": args.restart_every}
     # a preset or config file sets the evaluation fields (not the plan's scale: map and after_solved are flags)
@@ -316,7 +321,7 @@ def cmd_train(args) -> int:
                      cppn_activation=args.cppn_activation, decision=args.decision, symmetry=args.symmetry,
                      noise_draws=args.noise_draws,
                      aggregate=args.aggregate,
-                     quantile=args.quantile, noise_free_episode=args.noise_free_episode,
+                     quantile=args.quantile, noise_free_episode=args.noise_free_episode, map_spread=args.map_spread,
                      diversity=args.diversity, diversity_k=args.diversity_k, restart_every=args.restart_every)
     if args.resume and (args.out / "config.json").exists() and not args.config and not args.preset:
         from .storage.files import read_versioned_json

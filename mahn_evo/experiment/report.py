@@ -67,12 +67,17 @@ def _ties(entry: dict[str, Any]) -> str:
 
 
 def _robust_text(plan: dict[str, Any]) -> str:
-    """How the plan's runs were scored under noise, for the report's first line ('' for noise-free plans)."""
+    """How the plan's runs were scored under noise and on which maps, for the report's first line ('' for
+    noise-free plans on the map alone)."""
+    spread = float(plan.get("map_spread", 0.0))
+    maps = (f", each on a plus variant with arm lengths x [{1 - spread:g}, {1 + spread:g}] (`--map-spread "
+            f"{spread:g}`)") if spread else ""
     if plan.get("noise", "none") == "none":
-        return ""
-    text = (f"teams scored on {plan['episodes']} episode(s) with the `{plan['noise']}` noise "
+        return f"; {plan['episodes']} episode(s) per team{maps}" if spread else ""
+    text = (f"teams scored on {plan['episodes']} episode(s) with the `{plan['noise']}` noise{maps} "
             f"({plan['noise_draws']} draws, {plan['aggregate']} aggregate"
-            f"{', plus one noise-free episode' if plan.get('noise_free_episode') else ''})")
+            f"{', plus one noise-free episode' if plan.get('noise_free_episode') else ''}"
+            f"{' on the map itself' if plan.get('noise_free_episode') and spread else ''})")
     if plan.get("robust_from", "start") == "first_solution":
         return (f"; noise-free until a run's first solution and {plan.get('robust_delay', 0)} generation(s) more, "
                 f"then {text}")

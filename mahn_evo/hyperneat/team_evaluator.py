@@ -15,6 +15,7 @@ from mahn_envs.core import BatchSim, TaskParams
 from mahn_envs.core.controller import DECISIONS
 from mahn_envs.core.rng import check_seed
 from mahn_envs.maps import load_map
+from mahn_envs.maps.variants import spread_variant
 from mahn_envs.policies.team_controllers import TeamControllers
 
 from ..cppn import CPPN_ACTIVATIONS, compile_genome
@@ -64,6 +65,11 @@ class EvaluationSettings:
     #: also score every team on one noise-free episode (aggregated with the noisy ones): a team must work with and
     #: without noise, instead of relying on noise to get out of a deadlock
     noise_free_episode: bool = False
+    #: 0 (the paper): every episode on `map`.  S > 0 (map "plus" only): each keyed episode is played on a plus
+    #: variant whose left, top and right arms are the plus map's times factors drawn from [1 - S, 1 + S] per
+    #: (seed, episode key) (mahn_envs.maps.variants.spread_variant), so teams are selected for following corridors
+    #: rather than for one map's distances; the noise-free episode stays on the plus map itself
+    map_spread: float = 0.0
 
     def __post_init__(self) -> None:
         if self.mode not in MODES:
@@ -77,6 +83,12 @@ class EvaluationSettings:
             raise ValueError(f"quantile must be a number in [0, 1], got {self.quantile!r}")
         if not isinstance(self.noise_free_episode, bool):
             raise TypeError(f"noise_free_episode must be true or false, got {self.noise_free_episode!r}")
+        if isinstance(self.map_spread, bool) or not isinstance(self.map_spread, (int, float)) \
+                or not 0.0 <= self.map_spread < 1.0:
+            raise ValueError(f"map_spread must be a number in [0, 1), got {self.map_spread!r}")
+        if self.map_spread > 0.0 and self.map != "plus":
+            raise ValueError(f"map_spread draws variants of the plus map (its arm lengths), so it needs map 'plus', "
+                             f"got map {self.map!r}")
         if self.cppn_activation == "relax" and not self.evaluate_modules:
             raise ValueError("cppn_activation 'relax' always evaluates the Multiply modules (as the original's "
                              "MultipleSteps does): it cannot be combined with evaluate_modules = false")
@@ -185,6 +197,13 @@ class TeamEvaluator:
             self._sims = {n: BatchSim(self.world, n, self.settings.task)}
         return self._sims[n]
 
+    def _keyed_sim(self, key: int, n: int) -> BatchSim:
+        """The simulator of keyed episode `key` for n teams: on the map, or with map_spread on the key's variant."""
+        s = self.settings
+        if s.map_spread == 0.0:
+            return self._sim(n)
+        return BatchSim(spread_variant(s.seed, key, s.map_spread), n, s.task)
+
     def _clean_sim(self, n: int) -> BatchSim:
         if n not in self._clean_sims:
             self._clean_sims = {n: BatchSim(self.world, n, self.settings.task.without_noise())}
@@ -239,7 +258,7 @@ class TeamEvaluator:
                     ends[i] += end
             if todo:
                 run = ctrl if len(todo) == n else _rows(ctrl, np.array(todo))
-                sim = self._clean_sim(len(todo)) if clean else self._sim(len(todo))
+                sim = self._clean_sim(len(todo)) if clean else self._keyed_sim(key, len(todo))
                 res = sim.run_controllers(run, seed=s.seed, episode_keys=np.full(len(todo), key, dtype=np.int64))
                 end_xy = sim.pose[:, :, :2].copy()  # where the episodes left each robot
                 for j, i in enumerate(todo):
