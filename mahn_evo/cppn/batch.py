@@ -20,6 +20,7 @@ from numba import njit
 
 from .activations import BY_CODE
 from .plan import MODE_PRODUCT, MODE_SUM, CppnPlan
+from .relax import RelaxPlan, relax_population
 
 #: the plan layout this module understands; any other plan falls back to its own evaluate()
 _PLAN_FIELDS = ("n_inputs", "node_ids", "op_act", "op_mode", "term_ptr", "term_src", "term_weight", "output_slots")
@@ -72,6 +73,8 @@ BLOCK = 128
 def evaluate_plans(plans: Sequence, inputs: np.ndarray) -> np.ndarray:
     """Outputs (N, Q, n_outputs), float32, of N plans at the same inputs (Q, n_inputs): np.stack of each
     plan's `evaluate(inputs)`, computed wave by wave, BLOCK genomes at a time."""
+    if plans and all(type(p) is RelaxPlan for p in plans):  # the relaxation: genomes spread over the cores
+        return relax_population(plans, inputs)
     if not _batchable(plans):
         return np.stack([p.evaluate(inputs) for p in plans])
     if len(plans) > BLOCK:

@@ -20,6 +20,7 @@ cost near the recursive pass except for CPPNs whose cycles keep the signals movi
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -37,7 +38,7 @@ from .sinf import LIMIT, sine_lanes_intrinsic
 if TYPE_CHECKING:  # pragma: no cover
     from ..neat.genome import Genome
 
-__all__ = ["RelaxPlan", "compile_relax", "relax_steps"]
+__all__ = ["RelaxPlan", "compile_relax", "relax_population", "relax_steps"]
 
 _F = np.float32
 
@@ -151,9 +152,9 @@ def activate_row(new, i, code):  # pragma: no cover
             new[i, k] = _activate(code, new[i, k])
 
 
-@numba.njit(cache=True)
-def _relax(queries, n_in, act, csrc, cdst, cw, mod_ptr, mod_in, mod_out, out_idx, steps):  # pragma: no cover
-    """Relax every query; queries run in blocks of LANES side by side.
+@numba.njit(cache=True, inline="always")
+def _relax_into(queries, n_in, act, csrc, cdst, cw, mod_ptr, mod_in, mod_out, out_idx, steps, out):  # pragma: no cover
+    """Relax every query of one genome into out (Q, n_outputs); queries run in blocks of LANES side by side.
 
     Each query sees exactly the float32 operations of a one-query loop, in the same order (connections in genome
     order into a zeroed sum, then the activations, then the modules), so the result is bit for bit the same.  A
@@ -162,7 +163,6 @@ def _relax(queries, n_in, act, csrc, cdst, cw, mod_ptr, mod_in, mod_out, out_idx
     """
     n_q = queries.shape[0]
     n = act.shape[0]
-    out = np.empty((n_q, out_idx.shape[0]), dtype=np.float32)
     sig = np.empty((n, LANES), dtype=np.float32)
     new = np.empty((n, LANES), dtype=np.float32)
     first = n_in + 1
@@ -204,6 +204,54 @@ def _relax(queries, n_in, act, csrc, cdst, cw, mod_ptr, mod_in, mod_out, out_idx
         for k in range(w):
             for o in range(out_idx.shape[0]):
                 out[q0 + k, o] = sig[out_idx[o], k]
+
+
+@numba.njit(cache=True)
+def _relax(queries, n_in, act, csrc, cdst, cw, mod_ptr, mod_in, mod_out, out_idx, steps):  # pragma: no cover
+    """One genome's outputs (Q, n_outputs) at the queries (`_relax_into`)."""
+    out = np.empty((queries.shape[0], out_idx.shape[0]), dtype=np.float32)
+    _relax_into(queries, n_in, act, csrc, cdst, cw, mod_ptr, mod_in, mod_out, out_idx, steps, out)
+    return out
+
+
+@numba.njit(cache=True, parallel=True)
+def _relax_many(queries, n_in, node_ptr, act, conn_ptr, csrc, cdst, cw, mptr_ptr, mod_ptr, min_ptr, mod_in,
+                mod_out, out_idx, steps, out):  # pragma: no cover
+    """Every genome of a population at the same queries, genomes spread over the cores: genome g's arrays are
+    the slices [ptr[g], ptr[g + 1]) of the concatenated ones, and its outputs go to out[g].  Each genome runs
+    `_relax_into` exactly as alone, so the outputs are bit for bit those of one `_relax` call per genome."""
+    for g in numba.prange(out.shape[0]):
+        m0 = mptr_ptr[g]
+        m1 = mptr_ptr[g + 1]
+        _relax_into(queries, n_in, act[node_ptr[g]:node_ptr[g + 1]], csrc[conn_ptr[g]:conn_ptr[g + 1]],
+                    cdst[conn_ptr[g]:conn_ptr[g + 1]], cw[conn_ptr[g]:conn_ptr[g + 1]], mod_ptr[m0:m1],
+                    mod_in[min_ptr[g]:min_ptr[g + 1]], mod_out[m0 - g:m1 - g - 1], out_idx[g], steps[g], out[g])
+
+
+def relax_population(plans: Sequence[RelaxPlan], inputs: np.ndarray) -> np.ndarray:
+    """Outputs (N, Q, n_outputs), float32, of N relaxation plans at the same inputs (Q, n_inputs): bit for bit
+    np.stack of each plan's `evaluate(inputs)`, with the genomes spread over the cores (decoding a late
+    population of grown CPPNs is most of a generation's time with this activation)."""
+    x = np.ascontiguousarray(inputs, dtype=np.float32)
+    n_in, n_out = plans[0].n_inputs, plans[0].n_outputs
+    if x.ndim != 2 or x.shape[1] != n_in:
+        raise ValueError(f"relax_population: expected inputs of shape (Q, {n_in}), got {x.shape}")
+    if any(p.n_inputs != n_in or p.n_outputs != n_out for p in plans):
+        raise ValueError("relax_population: every plan must have the same numbers of inputs and outputs")
+
+    def ptr(sizes) -> np.ndarray:
+        return np.concatenate([[0], np.cumsum(np.fromiter(sizes, dtype=np.int64, count=len(plans)))])
+
+    def cat(name: str, dtype: type) -> np.ndarray:
+        return np.concatenate([getattr(p, name) for p in plans]).astype(dtype, copy=False)
+
+    out = np.empty((len(plans), x.shape[0], n_out), dtype=np.float32)
+    _relax_many(x, n_in, ptr(p.act.size for p in plans), cat("act", np.int64), ptr(p.src.size for p in plans),
+                cat("src", np.int64), cat("dst", np.int64), cat("weight", np.float32),
+                ptr(p.mod_ptr.size for p in plans), cat("mod_ptr", np.int64), ptr(p.mod_in.size for p in plans),
+                cat("mod_in", np.int64), cat("mod_out", np.int64),
+                np.stack([p.output_idx for p in plans]).astype(np.int64),
+                np.fromiter((p.steps for p in plans), dtype=np.int64, count=len(plans)), out)
     return out
 
 

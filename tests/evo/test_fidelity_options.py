@@ -263,3 +263,28 @@ def test_the_relaxations_vector_activations_are_the_scalar_ones_bit_for_bit():
         a, b = vector(code, x), scalar(code, x)
         same = (a.view(np.uint32) == b.view(np.uint32)) | (np.isnan(a) & np.isnan(b))
         assert same.all(), (code, x[~same][:5])
+
+
+def test_the_population_relaxed_over_the_cores_is_bit_for_bit_plan_by_plan():
+    """`relax_population` (genomes in a parallel loop, the route decode takes) gives every plan's own outputs, for
+    grown recurrent CPPNs with modules of different sizes, at one thread and at two."""
+    import numba
+
+    from mahn_evo.cppn.batch import evaluate_plans
+    from mahn_evo.cppn.relax import relax_population
+
+    plans = [compile_relax(random_genome(s, steps=40, kind="iros2011")) for s in range(12)]
+    plans.append(compile_relax(iros2011_seed_genome(6)))
+    assert len({p.act.size for p in plans}) > 3 and any(p.mod_out.size for p in plans)
+    q = _queries(6, n=37)
+    alone = np.stack([p.evaluate(q) for p in plans])
+    before = numba.get_num_threads()
+    try:
+        for n in sorted({1, numba.config.NUMBA_NUM_THREADS}):
+            numba.set_num_threads(n)
+            assert np.array_equal(relax_population(plans, q).view(np.uint32), alone.view(np.uint32))
+    finally:
+        numba.set_num_threads(before)
+    assert np.array_equal(evaluate_plans(plans, q).view(np.uint32), alone.view(np.uint32))
+    with pytest.raises(ValueError, match="expected inputs of shape"):
+        relax_population(plans, q[:, :5])
