@@ -36,6 +36,26 @@ def test_a_restart_brings_the_fresh_population_of_its_seed_and_keeps_the_count(t
     assert _cfg().restart_seed(3) != _cfg().restart_seed(6) != _cfg().seed
 
 
+def test_an_attempt_after_a_restart_evolves_as_a_fresh_run_from_the_same_population(tmp_path):
+    """Restart attempts are alike in law to first attempts: nothing of the old population (species, threshold,
+    stagnation clocks, generator) steers the search after a restart, only the generation count and the champion
+    carry on (docs/results/experiment_best_restarts/)."""
+    cfg = _cfg(generations=9)
+    tr = Trainer(cfg, tmp_path / "r")
+    for _ in range(9):
+        tr.step()  # restarts at generations 3 and 6
+    fresh = Trainer(EvolutionConfig(seed=cfg.restart_seed(3), init="minimal").with_overrides(pop=24), tmp_path / "f")
+    for _ in range(3):
+        fresh.step()
+    # generation, evaluations and best-ever carry on; the population's own columns are the fresh run's
+    # (best, mean fitness, solved, n_solved, species, threshold, complexity: all but the wall time)
+    def own(row: list) -> list:
+        return row[2:4] + row[5:10]
+
+    assert [own(row) for row in tr.rows[3:6]] == [own(row) for row in fresh.rows[0:3]]
+    assert tr.rows[3][7] != tr.rows[2][7] or tr.rows[3][8] != tr.rows[2][8] or tr.rows[3][2:4] != tr.rows[2][2:4]
+
+
 def test_restarts_are_resumed_bit_identically_and_listed_in_the_summary(tmp_path):
     full = Trainer(_cfg(), tmp_path / "full")
     summary = full.run()
@@ -75,3 +95,15 @@ def test_the_cli_and_the_experiment_plan_carry_the_setting(tmp_path):
     plan = experiment_plan(args)
     assert plan.train_config("situational", 1).restart_every == 100
     assert np.isfinite(plan.restart_every)
+
+
+def test_the_published_restarts_experiment_is_the_documented_command():
+    from pathlib import Path
+
+    from mahn_evo.experiment.plan import ExperimentPlan
+
+    published = ExperimentPlan.load(Path(__file__).parents[2] / "docs" / "results" / "experiment_best_restarts")
+    args = build_parser().parse_args(["experiment", "--modes", "situational", "--runs", "15", "--seed", "1",
+                                      "--generations", "1000", "--after-solved", "50", "--preset",
+                                      "iros2011-multistep", "--symmetry", "best", "--restart-every", "150"])
+    assert experiment_plan(args) == published
