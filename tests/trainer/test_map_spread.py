@@ -94,3 +94,14 @@ def test_the_experiment_flag_reaches_every_run_and_the_report():
     assert plan.train_config("situational", 3).map_spread == 0.3
     text = _robust_text(plan.to_dict())
     assert "plus variant with arm lengths x [0.7, 1.3]" in text and "noise-free episode on the map itself" in text
+
+
+def test_the_published_map_spread_experiment_is_the_documented_command():
+    from pathlib import Path
+
+    from mahn_evo.experiment.plan import ExperimentPlan
+
+    published = ExperimentPlan.load(Path(__file__).parents[2] / "docs" / "results" / "experiment_harden_maps")
+    args = build_parser().parse_args(["experiment", "--modes", "situational", "--runs", "15", "--seed", "1",
+                                      "--preset", "hardened", "--map-spread", "0.3", "--after-solved", "250"])
+    assert experiment_plan(args) == published
