@@ -232,6 +232,8 @@ def relax_population(plans: Sequence[RelaxPlan], inputs: np.ndarray) -> np.ndarr
     """Outputs (N, Q, n_outputs), float32, of N relaxation plans at the same inputs (Q, n_inputs): bit for bit
     np.stack of each plan's `evaluate(inputs)`, with the genomes spread over the cores (decoding a late
     population of grown CPPNs is most of a generation's time with this activation)."""
+    if not plans:
+        raise ValueError("relax_population: no plans to evaluate")
     x = np.ascontiguousarray(inputs, dtype=np.float32)
     n_in, n_out = plans[0].n_inputs, plans[0].n_outputs
     if x.ndim != 2 or x.shape[1] != n_in:

@@ -288,3 +288,5 @@ def test_the_population_relaxed_over_the_cores_is_bit_for_bit_plan_by_plan():
     assert np.array_equal(evaluate_plans(plans, q).view(np.uint32), alone.view(np.uint32))
     with pytest.raises(ValueError, match="expected inputs of shape"):
         relax_population(plans, q[:, :5])
+    with pytest.raises(ValueError, match="no plans"):
+        relax_population([], q)
