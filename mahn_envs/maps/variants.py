@@ -11,6 +11,8 @@ family.
 """
 from __future__ import annotations
 
+from functools import cache
+
 import numpy as np
 
 from . import World, load_map
@@ -24,6 +26,12 @@ PLUS_ARM = LOW
 ARMS = ("left", "top", "right")
 
 
+@cache
+def _plus() -> World:
+    """The built-in plus map, read and validated once (a robust generation draws several variants)."""
+    return load_map("plus")
+
+
 def plus_variant(left: float, top: float, right: float) -> World:
     """The plus map with its left, top and right arms `left`, `top` and `right` cm long (the plus map: 78.74
     each).  Each POI moves with its arm's end wall, so `plus_variant(78.74, 78.74, 78.74)` has the plus map's
@@ -33,7 +41,7 @@ def plus_variant(left: float, top: float, right: float) -> World:
         if isinstance(length, bool) or not isinstance(length, (int, float, np.floating)) \
                 or not 20.0 <= float(length) <= 1000.0:
             raise ValueError(f"plus_variant: the {name} arm must be a length in [20, 1000] cm, got {length!r}")
-    plus = load_map("plus")
+    plus = _plus()
     x0 = LOW - float(left)  # left arm's end wall
     y1 = HIGH + float(top)  # top arm's end wall
     x1 = HIGH + float(right)  # right arm's end wall

@@ -47,9 +47,8 @@ class EvolutionConfig:
 
     The fields that say how genomes are scored (mode, map, task, episodes, seed, evaluate_modules, cppn_activation,
     decision, symmetry, noise_draws, aggregate, quantile, noise_free_episode, map_spread) are those of the
-    evaluator's
-    `EvaluationSettings`, which checks them; `evaluation` builds that record.  They stay flat here, as config.json
-    has always held them.
+    evaluator's `EvaluationSettings`, which checks them; `evaluation` builds that record.  They stay flat here, as
+    config.json has always held them.
     """
 
     mode: str = "situational"
