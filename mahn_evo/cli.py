@@ -26,8 +26,10 @@ def _fidelity_and_robustness_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--preset", choices=sorted(PRESETS),
                    help="a named configuration: iros2011-code (the original code's behaviour), iros2011-multistep (the "
                         "code with its MultipleSteps CPPN activation), iros2011-paper (the paper's text where it "
-                        "differs) or hardened (iros2011-multistep, then hardened under noise from 50 generations "
-                        "after the first solution: for teams that go to robots); flags and --config override it")
+                        "differs), hardened (iros2011-multistep, then hardened under noise from 50 generations "
+                        "after the first solution: for teams that go to robots) or best-restarts (iros2011-multistep "
+                        "with --symmetry best --restart-every 150: the published experiment's configuration, 15/15 "
+                        "situational runs solved); flags and --config override it")
     p.add_argument("--cppn-activation", choices=CPPN_ACTIVATIONS,
                    help="recursive (default: the original's one depth-first pass, recurrent CPPN links add 0) or "
                         "relax (its MultipleSteps relaxation: modules and recurrent links live)")

@@ -210,7 +210,7 @@ def test_presets_set_the_originals_fields_and_flags_still_override():
     assert (multistep.init, multistep.evaluate_modules, multistep.cppn_activation) == ("iros2011", True, "relax")
     assert (multistep.neat.species_order, multistep.neat.stagnation_rule) == (code.neat.species_order,
                                                                               code.neat.stagnation_rule)
-    assert set(PRESETS) == {"iros2011-code", "iros2011-multistep", "iros2011-paper", "hardened"}
+    assert set(PRESETS) == {"iros2011-code", "iros2011-multistep", "iros2011-paper", "hardened", "best-restarts"}
 
 
 def test_cli_preset_reaches_the_run_config(tmp_path):

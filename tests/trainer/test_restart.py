@@ -107,3 +107,32 @@ def test_the_published_restarts_experiment_is_the_documented_command():
                                       "--generations", "1000", "--after-solved", "50", "--preset",
                                       "iros2011-multistep", "--symmetry", "best", "--restart-every", "150"])
     assert experiment_plan(args) == published
+
+
+def test_the_best_restarts_preset_is_the_faithful_preset_with_mirror_readings_and_restarts():
+    from mahn_evo.training.config import EvolutionConfig
+    from mahn_evo.training.presets import apply_preset
+
+    best = apply_preset(EvolutionConfig(seed=3), "best-restarts")
+    faithful = apply_preset(EvolutionConfig(seed=3), "iros2011-multistep")
+    assert (best.symmetry, best.restart_every) == ("best", 150)
+    assert best.neat == faithful.neat
+    assert best.with_overrides(symmetry=faithful.symmetry, restart_every=faithful.restart_every) == faithful
+    # explicit flags still override the preset
+    args = build_parser().parse_args(["experiment", "--preset", "best-restarts", "--restart-every", "100"])
+    assert experiment_plan(args).restart_every == 100
+
+
+def test_the_published_experiment_is_the_best_restarts_preset():
+    """docs/results/experiment/ holds the 15 + 15 runs of the chosen configuration: its plan is the preset's."""
+    from pathlib import Path
+
+    from mahn_evo.experiment.plan import ExperimentPlan
+
+    published = ExperimentPlan.load(Path(__file__).parents[2] / "docs" / "results" / "experiment")
+    args = build_parser().parse_args(["experiment", "--modes", "situational", "standard", "--runs", "15",
+                                      "--seed", "1", "--preset", "best-restarts"])
+    assert experiment_plan(args) == published
+    spelled_out = build_parser().parse_args(["experiment", "--modes", "situational", "standard", "--preset",
+                                             "iros2011-multistep", "--symmetry", "best", "--restart-every", "150"])
+    assert experiment_plan(spelled_out) == published

@@ -34,7 +34,7 @@ def main(out_dir: str, label: str, files: list[str]) -> None:
     ordered = [rows[k] for k in sorted(keep, key=lambda k: (k.split("_s")[1], k.split("_")[0] != "faithful"))]
     atomic_write_json(Path(out_dir) / "paired.json", {
         "note": "champion.json of each run (the best team by training fitness), measured by "
-                "docs/results/robustness/measure.py; faithful = docs/results/experiment/ (iros2011-multistep, "
+                "docs/results/robustness/measure.py; faithful = docs/results/experiment_faithful/ (iros2011-multistep, "
                 f"noise-free), {label} = this experiment; same seeds. Rows without sequential_successes_by_map "
                 "were measured before the protocol ran on asymmetric_plus too.",
         "rows": ordered})
