@@ -31,30 +31,27 @@ from typing import Any
 
 from .config import EvolutionConfig
 
+#: the original code's NEAT rules, shared by every preset that reads the code
+_CODE_NEAT: dict[str, Any] = {"species_order": "random", "stagnation_rule": "sticky", "weight_coefficient": 0.05}
+#: iros2011-multistep, the base of the presets beyond the paper
+_MULTISTEP: dict[str, Any] = {"init": "iros2011", "evaluate_modules": True, "cppn_activation": "relax",
+                              "neat": _CODE_NEAT}
+
 PRESETS: dict[str, dict[str, Any]] = {
     "iros2011-code": {
-        "init": "iros2011", "evaluate_modules": False, "cppn_activation": "recursive",
-        "neat": {"species_order": "random", "stagnation_rule": "sticky", "weight_coefficient": 0.05},
+        "init": "iros2011", "evaluate_modules": False, "cppn_activation": "recursive", "neat": _CODE_NEAT,
     },
-    "iros2011-multistep": {
-        "init": "iros2011", "evaluate_modules": True, "cppn_activation": "relax",
-        "neat": {"species_order": "random", "stagnation_rule": "sticky", "weight_coefficient": 0.05},
-    },
+    "iros2011-multistep": _MULTISTEP,
     "iros2011-paper": {
         "init": "minimal", "evaluate_modules": True, "cppn_activation": "recursive",
-        "neat": {"species_order": "random", "stagnation_rule": "sticky", "weight_coefficient": 0.1},
+        "neat": {**_CODE_NEAT, "weight_coefficient": 0.1},
     },
     "hardened": {
-        "init": "iros2011", "evaluate_modules": True, "cppn_activation": "relax",
-        "neat": {"species_order": "random", "stagnation_rule": "sticky", "weight_coefficient": 0.05},
+        **_MULTISTEP,
         "noise": "generalization", "episodes": 3, "noise_draws": "per_generation", "aggregate": "mean",
         "noise_free_episode": True, "robust_from": "first_solution", "robust_delay": 50,
     },
-    "best-restarts": {
-        "init": "iros2011", "evaluate_modules": True, "cppn_activation": "relax",
-        "neat": {"species_order": "random", "stagnation_rule": "sticky", "weight_coefficient": 0.05},
-        "symmetry": "best", "restart_every": 150,
-    },
+    "best-restarts": {**_MULTISTEP, "symmetry": "best", "restart_every": 150},
 }
 
 #: preset keys that are not EvolutionConfig fields: the task noise, by its name in NOISE_PRESETS
