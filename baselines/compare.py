@@ -6,6 +6,12 @@ episode of 1364 ticks for 3 robots), read from its `log.csv` (`evaluations` is c
 Both sides report the best team found so far, scored on the training map: evolution's `best_fitness` column
 (its champion so far), and for RL the greedy policy of the best checkpoint so far (`eval_log.csv`).  Solved rate =
 fraction of seeds whose best-so-far team solves the task by that budget.
+
+Compute-matched curves (``comparison_cpu.png``) put the same best-so-far values against the seconds each run
+spent: the process CPU-seconds that lean PPO, CMA-ES and NEAT-direct runs log (``cpu_seconds``), and for
+HyperNEAT runs the summed per-generation ``seconds`` of their `log.csv` (the wall time of a run that has a core
+to itself, as the experiments run them: one process per run, one numba thread).  A run that logs neither has no
+such curve and is left out of that plot.
 """
 from __future__ import annotations
 
@@ -38,6 +44,16 @@ class Curve:
     #: a run that stopped because it solved the task keeps its final values at larger budgets (its best team
     #: would still be the best); any other run is unknown (NaN) beyond the budget it was given
     holds_after_end: bool = False
+    #: seconds spent by each record (aligned with `budget`), or None when the run does not log them
+    cpu: np.ndarray | None = None
+
+    def on_cpu(self) -> Curve | None:
+        """The same curve with CPU-seconds as its budget (None without them): the compute-matched view."""
+        if self.cpu is None:
+            return None
+        order = np.argsort(self.cpu, kind="stable")
+        return Curve(self.method, self.seed, self.cpu[order], np.maximum.accumulate(self.fitness[order]),
+                     np.maximum.accumulate(self.solved[order]), self.source, self.holds_after_end)
 
     def at(self, budget: float) -> tuple[float, float]:
         """Best-so-far values at a budget (NaN before the run's first record or beyond its end)."""
@@ -55,12 +71,29 @@ def _truthy(v: str) -> bool:
     return str(v).strip().lower() in ("1", "true", "yes", "1.0")
 
 
-def _best_so_far(budget: list[float], fitness: list[float], solved: list[bool]) -> tuple[np.ndarray, ...]:
+def _best_so_far(budget: list[float], fitness: list[float], solved: list[bool],
+                 cpu: list[float] | None = None
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]:
+    """Records sorted by budget with fitness and solved as running maxima (and the seconds in the same order)."""
     order = np.argsort(budget, kind="stable")
     b = np.asarray(budget, dtype=np.float64)[order]
     f = np.maximum.accumulate(np.asarray(fitness, dtype=np.float64)[order])
     s = np.maximum.accumulate(np.asarray(solved, dtype=np.float64)[order])
-    return b, f, s
+    c = None if cpu is None else np.asarray(cpu, dtype=np.float64)[order]
+    return b, f, s, c
+
+
+def _cpu_column(rows: Sequence[dict[str, str]], where: str) -> list[float] | None:
+    """The cumulative `cpu_seconds` column, or the running sum of per-generation `seconds` (HyperNEAT's log),
+    or None if the log has neither."""
+    try:
+        if "cpu_seconds" in rows[0]:
+            return [float(r["cpu_seconds"]) for r in rows]
+        if "seconds" in rows[0]:
+            return np.cumsum([float(r["seconds"]) for r in rows]).tolist()
+    except ValueError as e:
+        raise ValueError(f"{where}: a seconds value is not a number ({e})") from None
+    return None
 
 
 def rl_curve(run_dir: str | Path) -> Curve:
@@ -70,9 +103,9 @@ def rl_curve(run_dir: str | Path) -> Curve:
     if not rows:
         raise ValueError(f"{run_dir}/eval_log.csv has no rows")
     m = cfg["map"]
-    b, f, s = _best_so_far([float(r["steps"]) for r in rows], [float(r[f"fitness_{m}"]) for r in rows],
-                           [_truthy(r[f"solved_{m}"]) for r in rows])
-    return Curve(cfg["algo"], cfg["seed"], b, f, s, str(run_dir))
+    b, f, s, c = _best_so_far([float(r["steps"]) for r in rows], [float(r[f"fitness_{m}"]) for r in rows],
+                              [_truthy(r[f"solved_{m}"]) for r in rows], _cpu_column(rows, f"{run_dir}/eval_log.csv"))
+    return Curve(cfg["algo"], cfg["seed"], b, f, s, str(run_dir), cpu=c)
 
 
 def evo_curve(run_dir: str | Path, ticks: int = TICKS, robots: int = ROBOTS) -> Curve:
@@ -88,12 +121,13 @@ def evo_curve(run_dir: str | Path, ticks: int = TICKS, robots: int = ROBOTS) -> 
     summary_path = run_dir / "summary.json"
     summary = read_json_object(summary_path, "summary") if summary_path.exists() else {}  # names a bad file
     mode = summary.get("mode", "unknown")
-    b, f, s = _best_so_far([float(r["evaluations"]) * ticks * robots for r in rows],
-                           [float(r["best_fitness"]) for r in rows], [_truthy(r["solved"]) for r in rows])
+    b, f, s, c = _best_so_far([float(r["evaluations"]) * ticks * robots for r in rows],
+                              [float(r["best_fitness"]) for r in rows], [_truthy(r["solved"]) for r in rows],
+                              _cpu_column(rows, f"{run_dir}/log.csv"))
     # HyperNEAT runs are named by their mode; other evolution runs (direct-encoding CMA-ES) name themselves
     method = summary.get("method") or f"hyperneat_{mode}"
     return Curve(method, summary.get("seed", run_dir.name), b, f, s, str(run_dir),
-                 holds_after_end=bool(summary.get("solved")) and bool(s[-1]))
+                 holds_after_end=bool(summary.get("solved")) and bool(s[-1]), cpu=c)
 
 
 def budget_grid(curves: Sequence[Curve], points: int = 12) -> np.ndarray:
@@ -164,7 +198,8 @@ def markdown_table(rows: Sequence[dict[str, Any]]) -> str:
     return "\n".join(lines)
 
 
-def plot(curves: Sequence[Curve], budgets: np.ndarray, path: Path) -> None:
+def plot(curves: Sequence[Curve], budgets: np.ndarray, path: Path,
+         xlabel: str = "budget (robot-steps = teams x 1364 ticks x 3 robots)") -> None:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -181,7 +216,7 @@ def plot(curves: Sequence[Curve], budgets: np.ndarray, path: Path) -> None:
         ax_s.plot(x, [r["solved_rate"] for r in agg], marker="o", ms=3, label=method)
     for ax, ylabel in ((ax_f, "best team fitness so far (training map)"), (ax_s, "solved rate (fraction of seeds)")):
         ax.set_xscale("log")
-        ax.set_xlabel("budget (robot-steps = teams x 1364 ticks x 3 robots)")
+        ax.set_xlabel(xlabel)
         ax.set_ylabel(ylabel)
         ax.grid(alpha=0.3)
     ax_f.axhline(100, color="grey", ls=":", lw=1)
@@ -214,9 +249,14 @@ def compare(rl_runs: Sequence[str | Path], evo_runs: Sequence[str | Path], out: 
     _atomic_write_text(out / "comparison.md", "\n".join(md))
     payload = {"budgets": budgets.tolist(), "table": table, "curves": [
         {"method": c.method, "seed": c.seed, "source": c.source, "budget": c.budget.tolist(),
-         "fitness": c.fitness.tolist(), "solved": c.solved.astype(bool).tolist()} for c in curves]}
+         "fitness": c.fitness.tolist(), "solved": c.solved.astype(bool).tolist(),
+         "cpu_seconds": None if c.cpu is None else c.cpu.tolist()} for c in curves]}
     write_json(out / "comparison.json", payload)
     plot(curves, budgets, out / "comparison.png")
+    on_cpu = [v for v in (c.on_cpu() for c in curves) if v is not None]
+    if on_cpu:  # compute-matched: the same best-so-far values against the seconds each run spent
+        plot(on_cpu, budget_grid(on_cpu, points), out / "comparison_cpu.png",
+             xlabel="CPU-seconds per run (HyperNEAT: seconds of a single-threaded run)")
     return payload
 
 

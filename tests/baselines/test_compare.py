@@ -91,3 +91,26 @@ def test_cli_compare_takes_lean_and_cmaes_runs_as_they_are(tmp_path, capsys) -> 
                  "--out", str(tmp_path / "o")]) == 0
     out = capsys.readouterr().out
     assert "mappo_gru" in out and "cmaes_direct_situational" in out
+
+
+def test_compute_matched_curves_use_cpu_seconds_and_hyperneat_seconds(tmp_path) -> None:
+    rl = tmp_path / "ppo_ff_seed0"
+    write_json(rl / "config.json", {"algo": "ppo_ff", "seed": 0, "map": "plus"})
+    write_csv(rl / "eval_log.csv", ["steps", "cpu_seconds", "fitness_plus", "solved_plus"],
+              [{"steps": 1000, "cpu_seconds": 2.0, "fitness_plus": 3.0, "solved_plus": 0},
+               {"steps": 2000, "cpu_seconds": 5.0, "fitness_plus": 2.0, "solved_plus": 0}])
+    evo = tmp_path / "evo"
+    write_csv(evo / "log.csv", ["generation", "evaluations", "best_fitness", "solved", "seconds"],
+              [{"generation": g, "evaluations": 100 * (g + 1), "best_fitness": f, "solved": v, "seconds": 1.5}
+               for g, (f, v) in enumerate([(5.0, 0), (130.0, 1), (131.0, 1)])])
+    write_json(evo / "summary.json", {"mode": "situational", "seed": 0, "solved": True})
+    r, e = rl_curve(rl), evo_curve(evo)
+    assert list(r.on_cpu().budget) == [2.0, 5.0] and list(r.on_cpu().fitness) == [3.0, 3.0]
+    assert list(e.on_cpu().budget) == [1.5, 3.0, 4.5]  # per-generation seconds, summed
+    assert e.on_cpu().at(3.0) == (130.0, 1.0)
+    bare = _rl_run(tmp_path, "dqn", 0, [(0, 1.0, 0)])  # logs no seconds: no compute-matched curve
+    assert rl_curve(bare).on_cpu() is None
+    payload = compare([rl, bare], [evo], tmp_path / "out", points=4)
+    assert (tmp_path / "out" / "comparison_cpu.png").stat().st_size > 0
+    by_method = {c["method"]: c for c in payload["curves"]}
+    assert by_method["ppo_ff"]["cpu_seconds"] == [2.0, 5.0] and by_method["dqn"]["cpu_seconds"] is None
