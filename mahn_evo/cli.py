@@ -56,6 +56,10 @@ def _fidelity_and_robustness_options(p: argparse.ArgumentParser) -> None:
                    help="map plus only: play each keyed (noisy) episode on a plus variant whose left, top and right "
                         "arms are the plus map's times factors drawn from [1-S, 1+S] per episode (default 0: the "
                         "map itself); the noise-free episode stays on the plus map")
+    p.add_argument("--map-branch", type=float, metavar="B",
+                   help="map plus only: the keyed (noisy) episodes' plus variants also have their left and right "
+                        "arms leaving the top arm at offsets drawn from [0, B] cm above the crossing (default 0: at "
+                        "the crossing), so a turn cannot rest on both sides of the crossing opening at once")
     p.add_argument("--robust-from", choices=ROBUST_FROM,
                    help="with --noise: start (default: every generation is scored under noise) or first_solution "
                         "(noise-free, exactly the run without noise, until the first solution; the generations "
@@ -230,6 +234,7 @@ def experiment_plan(args: argparse.Namespace) -> ExperimentPlan:
               "noise": args.noise, "episodes": args.episodes, "noise_draws": args.noise_draws,
               "aggregate": args.aggregate, "quantile": args.quantile,
               "noise_free_episode": args.noise_free_episode, "map_spread": args.map_spread,
+              "map_branch": args.map_branch,
               "robust_from": args.robust_from,
               "robust_delay": args.robust_delay, "diversity": args.diversity, "diversity_k": args.diversity_k,
               "restart_every": args.restart_every}
@@ -324,6 +329,7 @@ def cmd_train(args) -> int:
                      noise_draws=args.noise_draws,
                      aggregate=args.aggregate,
                      quantile=args.quantile, noise_free_episode=args.noise_free_episode, map_spread=args.map_spread,
+                     map_branch=args.map_branch,
                      diversity=args.diversity, diversity_k=args.diversity_k, restart_every=args.restart_every)
     if args.resume and (args.out / "config.json").exists() and not args.config and not args.preset:
         from .storage.files import read_versioned_json

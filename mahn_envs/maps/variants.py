@@ -1,4 +1,5 @@
-"""Variants of the plus map with arms of other lengths: the map family that map-spread training draws from.
+"""Variants of the plus map with arms of other lengths and side arms that branch off higher: the map family that
+map-spread and map-branch training draw from.
 
 Why: teams trained on one map can learn its distances (turn after so many ticks) instead of its walls, and then
 fail on the paper's test map, whose arms are shorter and longer (docs/results/experiment_harden/: the most
@@ -6,8 +7,15 @@ general hardened solutions reach 0-5 of 10 noisy sequential successes on `asymme
 `plus`).  Scoring teams on plus maps whose left, top and right arms have random lengths selects behaviour that
 follows the corridors.  The family keeps what the task defines: the home arm, the start poses, home, the
 junction and the corridor width; only the three patrolled arms change, with their POIs 10 cm from the new end
-walls as on the plus map.  The test map's other change, a right arm branching off the top arm, is not in the
-family.
+walls as on the plus map.
+
+Branch offsets (`map_branch`): the side arms may also leave the top arm above the junction, each at its own
+offset, so the crossing is no longer symmetric.  Why: the test map's right arm branches off the top arm 77.5 cm
+above the junction, and teams that pass the sequential protocol on plus and on plus maps with the test map's arm
+lengths fail there (hardened seeds 3 and 6: 0 of 4 noisy episodes with the branch, 1-3 of 4 without it): a robot
+meant to turn left at the crossing keeps going when the right side is a wall, so its turn rests on both sides
+opening at once.  Offsets drawn from [0, B] with B below 77.5 select cues that hold for one open side, while
+the test map's branch stays outside the family.
 """
 from __future__ import annotations
 
@@ -32,39 +40,68 @@ def _plus() -> World:
     return load_map("plus")
 
 
-def plus_variant(left: float, top: float, right: float) -> World:
+def plus_variant(left: float, top: float, right: float, left_offset: float = 0.0, right_offset: float = 0.0
+                 ) -> World:
     """The plus map with its left, top and right arms `left`, `top` and `right` cm long (the plus map: 78.74
-    each).  Each POI moves with its arm's end wall, so `plus_variant(78.74, 78.74, 78.74)` has the plus map's
-    walls, POIs, home and starts."""
+    each), the left and right arms leaving the top arm `left_offset` and `right_offset` cm above the crossing (0:
+    at the crossing, as on the plus map; an offset leaves at least one corridor width of top arm beyond the side
+    arm).  Each POI moves with its arm's end wall, so `plus_variant(78.74, 78.74, 78.74)` has the plus map's walls,
+    POIs, home and starts."""
     lengths = (left, top, right)
     for name, length in zip(ARMS, lengths):
         if isinstance(length, bool) or not isinstance(length, (int, float, np.floating)) \
                 or not 20.0 <= float(length) <= 1000.0:
             raise ValueError(f"plus_variant: the {name} arm must be a length in [20, 1000] cm, got {length!r}")
+    width = HIGH - LOW
+    for name, offset in (("left", left_offset), ("right", right_offset)):
+        if isinstance(offset, bool) or not isinstance(offset, (int, float, np.floating)) \
+                or not 0.0 <= float(offset) <= float(top) - width:
+            raise ValueError(f"plus_variant: the {name} arm's offset must be in [0, top arm - corridor width] = "
+                             f"[0, {float(top) - width:.2f}] cm, got {offset!r}")
     plus = _plus()
     x0 = LOW - float(left)  # left arm's end wall
     y1 = HIGH + float(top)  # top arm's end wall
     x1 = HIGH + float(right)  # right arm's end wall
+    dl, dr = float(left_offset), float(right_offset)
     walls = [
-        (x0, HIGH, LOW, HIGH), (LOW, y1, LOW, HIGH), (LOW, y1, HIGH, y1), (HIGH, HIGH, HIGH, y1),
-        (HIGH, HIGH, x1, HIGH), (x1, LOW, x1, HIGH), (x1, LOW, HIGH, LOW), (HIGH, 0.0, HIGH, LOW),
-        (HIGH, 0.0, LOW, 0.0), (LOW, LOW, LOW, 0.0), (LOW, LOW, x0, LOW), (x0, HIGH, x0, LOW),
+        (x0, HIGH + dl, LOW, HIGH + dl), (LOW, y1, LOW, HIGH + dl), (LOW, y1, HIGH, y1), (HIGH, HIGH + dr, HIGH, y1),
+        (HIGH, HIGH + dr, x1, HIGH + dr), (x1, LOW + dr, x1, HIGH + dr), (x1, LOW + dr, HIGH, LOW + dr),
+        (HIGH, 0.0, HIGH, LOW + dr), (HIGH, 0.0, LOW, 0.0), (LOW, LOW + dl, LOW, 0.0), (LOW, LOW + dl, x0, LOW + dl),
+        (x0, HIGH + dl, x0, LOW + dl),
     ]
-    shift = np.array([[-(float(left) - PLUS_ARM), 0.0], [0.0, float(top) - PLUS_ARM], [float(right) - PLUS_ARM, 0.0]])
+    shift = np.array([[-(float(left) - PLUS_ARM), dl], [0.0, float(top) - PLUS_ARM], [float(right) - PLUS_ARM, dr]])
     pois = plus.pois + shift
-    name = f"plus_arms_{float(left):.2f}_{float(top):.2f}_{float(right):.2f}"
+    branch = f"_branch_{dl:.2f}_{dr:.2f}" if dl or dr else ""
+    name = f"plus_arms_{float(left):.2f}_{float(top):.2f}_{float(right):.2f}{branch}"
+    offsets = f", left and right arms leaving the top arm {dl:.2f} and {dr:.2f} cm above the crossing" \
+        if dl or dr else ""
     return load_map({"name": name, "walls": [list(w) for w in walls], "home": plus.home.tolist(),
                      "pois": pois.tolist(), "starts": plus.starts.tolist(),
                      "description": f"the plus map with left, top and right arms {float(left):.2f}, "
-                                    f"{float(top):.2f} and {float(right):.2f} cm long (plus: {PLUS_ARM} each)"})
+                                    f"{float(top):.2f} and {float(right):.2f} cm long (plus: {PLUS_ARM} each)"
+                                    f"{offsets}"})
 
 
-def spread_variant(seed: int, key: int, spread: float) -> World:
+def spread_variant(seed: int, key: int, spread: float, branch: float = 0.0) -> World:
     """The plus variant of episode `key` in a run seeded `seed`: each arm's length is the plus map's times a factor
-    drawn uniformly from [1 - spread, 1 + spread].  A pure function of (seed, key), like the episode's noise, so
-    every team of a generation meets the same maps and a resumed run meets the same maps again."""
-    if isinstance(spread, bool) or not isinstance(spread, (int, float)) or not 0.0 < spread < 1.0:
-        raise ValueError(f"spread must be a number in (0, 1), got {spread!r}")
+    drawn uniformly from [1 - spread, 1 + spread] (spread 0: the plus map's), then, with `branch` > 0, the left and
+    right arms' offsets above the crossing drawn uniformly from [0, branch] cm.  A pure function of (seed, key),
+    like the episode's noise, so every team of a generation meets the same maps and a resumed run meets the same
+    maps again (the lengths are drawn first, so a spread-only run draws what it always drew)."""
+    if isinstance(spread, bool) or not isinstance(spread, (int, float)) or not 0.0 <= spread < 1.0:
+        raise ValueError(f"spread must be a number in [0, 1), got {spread!r}")
+    check_branch(branch, spread)
     rng = np.random.default_rng(np.random.SeedSequence([int(seed), int(key)], spawn_key=(0x6D6170,)))
-    factors = rng.uniform(1.0 - spread, 1.0 + spread, size=len(ARMS))
-    return plus_variant(*(PLUS_ARM * factors))
+    factors = rng.uniform(1.0 - spread, 1.0 + spread, size=len(ARMS)) if spread else np.ones(len(ARMS))
+    offsets = rng.uniform(0.0, branch, size=2) if branch else np.zeros(2)
+    left, top, right = (float(PLUS_ARM * f) for f in factors)
+    return plus_variant(left, top, right, left_offset=float(offsets[0]), right_offset=float(offsets[1]))
+
+
+def check_branch(branch: float, spread: float = 0.0) -> None:
+    """A ValueError unless `branch` (cm) is in [0, the shortest top arm of the spread - one corridor width]: every
+    drawn offset must leave top arm beyond the side arm."""
+    limit = PLUS_ARM * (1.0 - spread) - (HIGH - LOW)
+    if isinstance(branch, bool) or not isinstance(branch, (int, float)) or not 0.0 <= branch <= limit:
+        raise ValueError(f"map_branch must be a number of cm in [0, {limit:.2f}] (the shortest top arm of map_spread "
+                         f"{spread:g} less one corridor width), got {branch!r}")

@@ -70,8 +70,12 @@ def _robust_text(plan: dict[str, Any]) -> str:
     """How the plan's runs were scored under noise and on which maps, for the report's first line ('' for
     noise-free plans on the map alone)."""
     spread = float(plan.get("map_spread", 0.0))
-    maps = (f", each on a plus variant with arm lengths x [{1 - spread:g}, {1 + spread:g}] (`--map-spread "
-            f"{spread:g}`)") if spread else ""
+    branch = float(plan.get("map_branch", 0.0))
+    variant = [f"arm lengths x [{1 - spread:g}, {1 + spread:g}] (`--map-spread {spread:g}`)"] if spread else []
+    variant += [f"side arms leaving the top arm [0, {branch:g}] cm above the crossing (`--map-branch {branch:g}`)"] \
+        if branch else []
+    maps = f", each on a plus variant with {' and '.join(variant)}" if variant else ""
+    spread = spread or branch  # below: whether the keyed episodes are on variants
     if plan.get("noise", "none") == "none":
         return f"; {plan['episodes']} episode(s) per team{maps}" if spread else ""
     text = (f"teams scored on {plan['episodes']} episode(s) with the `{plan['noise']}` noise{maps} "

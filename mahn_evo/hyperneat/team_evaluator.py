@@ -15,7 +15,7 @@ from mahn_envs.core import BatchSim, TaskParams
 from mahn_envs.core.controller import DECISIONS
 from mahn_envs.core.rng import check_seed
 from mahn_envs.maps import load_map
-from mahn_envs.maps.variants import spread_variant
+from mahn_envs.maps.variants import check_branch, spread_variant
 from mahn_envs.policies.team_controllers import TeamControllers
 
 from ..cppn import CPPN_ACTIVATIONS, compile_genome
@@ -70,6 +70,10 @@ class EvaluationSettings:
     #: (seed, episode key) (mahn_envs.maps.variants.spread_variant), so teams are selected for following corridors
     #: rather than for one map's distances; the noise-free episode stays on the plus map itself
     map_spread: float = 0.0
+    #: 0 (the paper): side arms at the crossing.  B > 0 cm (map "plus" only): each keyed episode's plus variant also
+    #: has its left and right arms leaving the top arm at offsets drawn from [0, B] above the crossing (see
+    #: mahn_envs.maps.variants), so a turn cannot rest on both sides of the crossing opening at once
+    map_branch: float = 0.0
 
     def __post_init__(self) -> None:
         if self.mode not in MODES:
@@ -86,6 +90,10 @@ class EvaluationSettings:
         if isinstance(self.map_spread, bool) or not isinstance(self.map_spread, (int, float)) \
                 or not 0.0 <= self.map_spread < 1.0:
             raise ValueError(f"map_spread must be a number in [0, 1), got {self.map_spread!r}")
+        check_branch(self.map_branch, self.map_spread)
+        if self.map_branch > 0.0 and self.map != "plus":
+            raise ValueError(f"map_branch draws variants of the plus map (its side arms' offsets), so it needs map "
+                             f"'plus', got map {self.map!r}")
         if self.map_spread > 0.0 and self.map != "plus":
             raise ValueError(f"map_spread draws variants of the plus map (its arm lengths), so it needs map 'plus', "
                              f"got map {self.map!r}")
@@ -200,9 +208,9 @@ class TeamEvaluator:
     def _keyed_sim(self, key: int, n: int) -> BatchSim:
         """The simulator of keyed episode `key` for n teams: on the map, or with map_spread on the key's variant."""
         s = self.settings
-        if s.map_spread == 0.0:
+        if s.map_spread == 0.0 and s.map_branch == 0.0:
             return self._sim(n)
-        return BatchSim(spread_variant(s.seed, key, s.map_spread), n, s.task)
+        return BatchSim(spread_variant(s.seed, key, s.map_spread, s.map_branch), n, s.task)
 
     def _clean_sim(self, n: int) -> BatchSim:
         if n not in self._clean_sims:

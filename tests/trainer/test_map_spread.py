@@ -48,7 +48,8 @@ def test_spread_variants_are_a_pure_function_of_seed_and_key():
         xmin, _, xmax, ymax = spread_variant(0, key, 0.3).bounds
         arms = np.array([78.74 - xmin, ymax - 108.2675, xmax - 108.2675])
         assert np.all(arms >= 0.7 * PLUS_ARM - 1e-9) and np.all(arms <= 1.3 * PLUS_ARM + 1e-9)
-    for bad in (0.0, 1.0, -0.1, True):
+    assert np.array_equal(spread_variant(0, 0, 0.0).walls, load_map("plus").walls)  # no spread: the plus map
+    for bad in (1.0, -0.1, True):
         with pytest.raises(ValueError, match="spread must be"):
             spread_variant(0, 0, bad)
 
