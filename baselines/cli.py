@@ -91,6 +91,11 @@ def build_parser() -> argparse.ArgumentParser:
                    help="mahn-evo train (or mahn-baselines cmaes / neat-direct) output directories")
     c.add_argument("--rl-runs", nargs="*", type=Path, default=[],
                    help="more finished RL run directories to include as they are (e.g. mahn-baselines lean runs)")
+    c.add_argument("--published", nargs="*", type=Path, default=[], metavar="COMPARISON_JSON",
+                   help="earlier comparisons (their comparison.json) whose curves join this one as they are: run "
+                        "folders do not outlive their machine, published curves do")
+    c.add_argument("--published-methods", nargs="*", default=None, metavar="METHOD",
+                   help="take only these methods' curves from --published (default: all)")
     c.add_argument("--out", type=Path, default=Path("docs/results/baselines"),
                    help="folder of the comparison files (default %(default)s)")
     c.add_argument("--points", type=int, default=12, help="budget points in the table")
@@ -231,7 +236,10 @@ def main(argv: Sequence[str] | None = None) -> int:
                 if steps is None:
                     raise ValueError("give --steps (or --evo-runs to match their budget)")
                 rl = train_missing(a.algos, a.seeds, steps, a.runs_dir, _task_overrides(a))
-            payload = compare(list(rl) + list(a.rl_runs), a.evo_runs, a.out, points=a.points)
+            from .compare import published_curves
+
+            earlier = [c for f in a.published for c in published_curves(f, a.published_methods)]
+            payload = compare(list(rl) + list(a.rl_runs), a.evo_runs, a.out, points=a.points, published=earlier)
             from .compare import markdown_table
 
             print(markdown_table(payload["table"]))

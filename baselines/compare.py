@@ -130,6 +130,36 @@ def evo_curve(run_dir: str | Path, ticks: int = TICKS, robots: int = ROBOTS) -> 
                  holds_after_end=bool(summary.get("solved")) and bool(s[-1]), cpu=c)
 
 
+def published_curves(path: str | Path, methods: Sequence[str] | None = None) -> list[Curve]:
+    """The curves of an earlier comparison (its comparison.json), optionally only `methods`: run folders do not
+    outlive the machine they ran on, their comparison.json does, so a comparison can be assembled from published
+    pieces.  A curve saved without `holds_after_end` holds when it ended solved (its best-so-far team stays)."""
+    path = Path(path)
+    data = read_json_object(path, "comparison")
+    curves = data.get("curves")
+    if not isinstance(curves, list):
+        raise ValueError(f"{path}: no 'curves' list (is it a comparison.json written by `compare`?)")
+    out = []
+    for i, c in enumerate(curves):
+        try:
+            if methods is not None and c["method"] not in methods:
+                continue
+            budget, fitness = np.asarray(c["budget"], float), np.asarray(c["fitness"], float)
+            solved = np.asarray(c["solved"], float)
+            cpu = None if c.get("cpu_seconds") is None else np.asarray(c["cpu_seconds"], float)
+        except (KeyError, TypeError, ValueError) as e:
+            raise ValueError(f"{path}: curve {i} is malformed ({type(e).__name__}: {e})") from None
+        lengths = {len(budget), len(fitness), len(solved)} | ({len(cpu)} if cpu is not None else set())
+        if len(lengths) != 1 or not len(budget):
+            raise ValueError(f"{path}: curve {i} ({c['method']}) has columns of different or zero lengths")
+        out.append(Curve(str(c["method"]), c.get("seed"), budget, fitness, solved, str(c.get("source", path)),
+                         holds_after_end=bool(c.get("holds_after_end", solved[-1] > 0)), cpu=cpu))
+    if methods is not None and not out:
+        raise ValueError(f"{path}: no curve of method(s) {sorted(methods)}; it has "
+                         f"{sorted({str(c.get('method')) for c in curves if isinstance(c, dict)})}")
+    return out
+
+
 def budget_grid(curves: Sequence[Curve], points: int = 12) -> np.ndarray:
     """Log-spaced budgets from the smallest positive first record to the largest end, plus every run's end
     (so each method's full-budget value appears in the table and on the plot)."""
@@ -231,9 +261,10 @@ def plot(curves: Sequence[Curve], budgets: np.ndarray, path: Path,
 
 
 def compare(rl_runs: Sequence[str | Path], evo_runs: Sequence[str | Path], out: str | Path,
-            points: int = 12) -> dict[str, Any]:
-    """Read runs, write comparison.{csv,md,json,png} into `out`; returns the JSON payload."""
-    curves = [rl_curve(d) for d in rl_runs] + [evo_curve(d) for d in evo_runs]
+            points: int = 12, published: Sequence[Curve] = ()) -> dict[str, Any]:
+    """Read runs (and take `published` curves as they are), write comparison.{csv,md,json,png} into `out`; returns
+    the JSON payload."""
+    curves = [rl_curve(d) for d in rl_runs] + [evo_curve(d) for d in evo_runs] + list(published)
     if not curves:
         raise ValueError("nothing to compare: give RL run directories and/or --evo-runs")
     out = Path(out)
@@ -250,7 +281,8 @@ def compare(rl_runs: Sequence[str | Path], evo_runs: Sequence[str | Path], out: 
     payload = {"budgets": budgets.tolist(), "table": table, "curves": [
         {"method": c.method, "seed": c.seed, "source": c.source, "budget": c.budget.tolist(),
          "fitness": c.fitness.tolist(), "solved": c.solved.astype(bool).tolist(),
-         "cpu_seconds": None if c.cpu is None else c.cpu.tolist()} for c in curves]}
+         "cpu_seconds": None if c.cpu is None else c.cpu.tolist(), "holds_after_end": c.holds_after_end}
+        for c in curves]}
     write_json(out / "comparison.json", payload)
     plot(curves, budgets, out / "comparison.png")
     on_cpu = [v for v in (c.on_cpu() for c in curves) if v is not None]

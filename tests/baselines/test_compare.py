@@ -114,3 +114,23 @@ def test_compute_matched_curves_use_cpu_seconds_and_hyperneat_seconds(tmp_path) 
     assert (tmp_path / "out" / "comparison_cpu.png").stat().st_size > 0
     by_method = {c["method"]: c for c in payload["curves"]}
     assert by_method["ppo_ff"]["cpu_seconds"] == [2.0, 5.0] and by_method["dqn"]["cpu_seconds"] is None
+
+
+def test_published_curves_join_a_comparison_as_they_were(tmp_path) -> None:
+    evo = [_evo_run(tmp_path, "situational", s, [(100, 50.0, 0), (200, 150.0 + s, 1)], solved=True) for s in (1, 2)]
+    first = compare([], evo, tmp_path / "first", points=4)
+    rl = _rl_run(tmp_path, "ppo_ff", 0, [(0, 1.0, 0), (900_000, 4.0, 0)])
+    assert main(["compare", "--no-train", "--algos", "--rl-runs", str(rl), "--published",
+                 str(tmp_path / "first" / "comparison.json"), "--published-methods", "hyperneat_situational",
+                 "--out", str(tmp_path / "second")]) == 0
+    second = json.loads((tmp_path / "second" / "comparison.json").read_text())
+    again = {r["method"]: r for r in second["table"]}
+    assert again["hyperneat_situational"] == {r["method"]: r for r in first["table"]}["hyperneat_situational"]
+    assert {c["method"] for c in second["curves"]} == {"ppo_ff", "hyperneat_situational"}
+    assert all(c["holds_after_end"] for c in second["curves"] if c["method"] == "hyperneat_situational")
+    with pytest.raises(ValueError, match="no curve of method"):
+        from baselines.compare import published_curves
+        published_curves(tmp_path / "first" / "comparison.json", ["cmaes_direct_standard"])
+    (tmp_path / "bad.json").write_text('{"curves": [{"method": "x", "budget": [1, 2], "fitness": [1]}]}')
+    with pytest.raises(ValueError, match="curve 0 is malformed|different or zero lengths"):
+        published_curves(tmp_path / "bad.json")
