@@ -91,3 +91,14 @@ def test_the_branch_is_checked_kept_out_of_the_noise_free_phase_and_reaches_the_
     assert "noise-free episode on the map itself" in text
     train = build_parser().parse_args(["train", "--preset", "hardened", "--map-branch", "25", "--out", "y"])
     assert train.map_branch == 25.0
+
+
+def test_the_published_branch_experiment_is_the_documented_command():
+    from pathlib import Path
+
+    from mahn_evo.experiment.plan import ExperimentPlan
+
+    published = ExperimentPlan.load(Path(__file__).parents[2] / "docs" / "results" / "experiment_harden_branch")
+    args = build_parser().parse_args(["experiment", "--modes", "situational", "--runs", "15", "--seed", "1",
+                                      "--preset", "hardened", "--map-branch", "40", "--after-solved", "250"])
+    assert experiment_plan(args) == published
