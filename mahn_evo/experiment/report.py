@@ -74,14 +74,13 @@ def _robust_text(plan: dict[str, Any]) -> str:
     variant = [f"arm lengths x [{1 - spread:g}, {1 + spread:g}] (`--map-spread {spread:g}`)"] if spread else []
     variant += [f"side arms leaving the top arm [0, {branch:g}] cm above the crossing (`--map-branch {branch:g}`)"] \
         if branch else []
-    maps = f", each on a plus variant with {' and '.join(variant)}" if variant else ""
-    spread = spread or branch  # below: whether the keyed episodes are on variants
+    maps = f", each on a plus variant with {' and '.join(variant)}" if variant else ""  # '' on the map itself
     if plan.get("noise", "none") == "none":
-        return f"; {plan['episodes']} episode(s) per team{maps}" if spread else ""
+        return f"; {plan['episodes']} episode(s) per team{maps}" if maps else ""
     text = (f"teams scored on {plan['episodes']} episode(s) with the `{plan['noise']}` noise{maps} "
             f"({plan['noise_draws']} draws, {plan['aggregate']} aggregate"
             f"{', plus one noise-free episode' if plan.get('noise_free_episode') else ''}"
-            f"{' on the map itself' if plan.get('noise_free_episode') and spread else ''})")
+            f"{' on the map itself' if plan.get('noise_free_episode') and maps else ''})")
     if plan.get("robust_from", "start") == "first_solution":
         return (f"; noise-free until a run's first solution and {plan.get('robust_delay', 0)} generation(s) more, "
                 f"then {text}")
