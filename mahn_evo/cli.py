@@ -60,6 +60,9 @@ def _fidelity_and_robustness_options(p: argparse.ArgumentParser) -> None:
                    help="map plus only: the keyed (noisy) episodes' plus variants also have their left and right "
                         "arms leaving the top arm at offsets drawn from [0, B] cm above the crossing (default 0: at "
                         "the crossing), so a turn cannot rest on both sides of the crossing opening at once")
+    p.add_argument("--plain-episodes", type=int, metavar="N",
+                   help="with --map-spread or --map-branch: play the first N keyed (noisy) episodes of each "
+                        "generation on the map itself and only the others on variants (default 0)")
     p.add_argument("--robust-from", choices=ROBUST_FROM,
                    help="with --noise: start (default: every generation is scored under noise) or first_solution "
                         "(noise-free, exactly the run without noise, until the first solution; the generations "
@@ -234,7 +237,7 @@ def experiment_plan(args: argparse.Namespace) -> ExperimentPlan:
               "noise": args.noise, "episodes": args.episodes, "noise_draws": args.noise_draws,
               "aggregate": args.aggregate, "quantile": args.quantile,
               "noise_free_episode": args.noise_free_episode, "map_spread": args.map_spread,
-              "map_branch": args.map_branch,
+              "map_branch": args.map_branch, "plain_episodes": args.plain_episodes,
               "robust_from": args.robust_from,
               "robust_delay": args.robust_delay, "diversity": args.diversity, "diversity_k": args.diversity_k,
               "restart_every": args.restart_every}
@@ -329,7 +332,7 @@ def cmd_train(args) -> int:
                      noise_draws=args.noise_draws,
                      aggregate=args.aggregate,
                      quantile=args.quantile, noise_free_episode=args.noise_free_episode, map_spread=args.map_spread,
-                     map_branch=args.map_branch,
+                     map_branch=args.map_branch, plain_episodes=args.plain_episodes,
                      diversity=args.diversity, diversity_k=args.diversity_k, restart_every=args.restart_every)
     if args.resume and (args.out / "config.json").exists() and not args.config and not args.preset:
         from .storage.files import read_versioned_json

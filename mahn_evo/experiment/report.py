@@ -74,7 +74,9 @@ def _robust_text(plan: dict[str, Any]) -> str:
     variant = [f"arm lengths x [{1 - spread:g}, {1 + spread:g}] (`--map-spread {spread:g}`)"] if spread else []
     variant += [f"side arms leaving the top arm [0, {branch:g}] cm above the crossing (`--map-branch {branch:g}`)"] \
         if branch else []
-    maps = f", each on a plus variant with {' and '.join(variant)}" if variant else ""  # '' on the map itself
+    plain = int(plan.get("plain_episodes", 0))
+    each = f"the first {plain} on the map itself (`--plain-episodes {plain}`), the others" if plain else "each"
+    maps = f", {each} on a plus variant with {' and '.join(variant)}" if variant else ""  # '' on the map itself
     if plan.get("noise", "none") == "none":
         return f"; {plan['episodes']} episode(s) per team{maps}" if maps else ""
     text = (f"teams scored on {plan['episodes']} episode(s) with the `{plan['noise']}` noise{maps} "

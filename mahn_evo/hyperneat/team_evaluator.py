@@ -74,6 +74,10 @@ class EvaluationSettings:
     #: has its left and right arms leaving the top arm at offsets drawn from [0, B] above the crossing (see
     #: mahn_envs.maps.variants), so a turn cannot rest on both sides of the crossing opening at once
     map_branch: float = 0.0
+    #: with map_spread or map_branch: the first N keyed episodes of each generation are played on `map` itself, the
+    #: others on variants, so every generation keeps noisy episodes on the map the team was solved on (all-variant
+    #: hardening traded plus for the test map: docs/results/experiment_harden_branch/)
+    plain_episodes: int = 0
 
     def __post_init__(self) -> None:
         if self.mode not in MODES:
@@ -97,6 +101,13 @@ class EvaluationSettings:
         if self.map_spread > 0.0 and self.map != "plus":
             raise ValueError(f"map_spread draws variants of the plus map (its arm lengths), so it needs map 'plus', "
                              f"got map {self.map!r}")
+        if isinstance(self.plain_episodes, bool) or not isinstance(self.plain_episodes, int) \
+                or not 0 <= self.plain_episodes <= self.episodes:
+            raise ValueError(f"plain_episodes must be an integer in [0, episodes = {self.episodes}], got "
+                             f"{self.plain_episodes!r}")
+        if self.plain_episodes and self.map_spread == 0.0 and self.map_branch == 0.0:
+            raise ValueError("plain_episodes keeps some keyed episodes on the map instead of its variants, so it "
+                             "needs map_spread or map_branch > 0 (without them every episode is on the map)")
         if self.cppn_activation == "relax" and not self.evaluate_modules:
             raise ValueError("cppn_activation 'relax' always evaluates the Multiply modules (as the original's "
                              "MultipleSteps does): it cannot be combined with evaluate_modules = false")
@@ -208,7 +219,8 @@ class TeamEvaluator:
     def _keyed_sim(self, key: int, n: int) -> BatchSim:
         """The simulator of keyed episode `key` for n teams: on the map, or with map_spread on the key's variant."""
         s = self.settings
-        if s.map_spread == 0.0 and s.map_branch == 0.0:
+        # key % episodes: the episode's place in its generation (keys run generation * K ... + K - 1, or 0 ... K - 1)
+        if (s.map_spread == 0.0 and s.map_branch == 0.0) or key % s.episodes < s.plain_episodes:
             return self._sim(n)
         return BatchSim(spread_variant(s.seed, key, s.map_spread, s.map_branch), n, s.task)
 

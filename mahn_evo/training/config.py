@@ -46,9 +46,9 @@ class EvolutionConfig:
     """Everything that determines a run.  Same config (seed included) -> bit-identical run.
 
     The fields that say how genomes are scored (mode, map, task, episodes, seed, evaluate_modules, cppn_activation,
-    decision, symmetry, noise_draws, aggregate, quantile, noise_free_episode, map_spread, map_branch) are those of the
-    evaluator's `EvaluationSettings`, which checks them; `evaluation` builds that record.  They stay flat here, as
-    config.json has always held them.
+    decision, symmetry, noise_draws, aggregate, quantile, noise_free_episode, map_spread, map_branch,
+    plain_episodes) are those of the evaluator's `EvaluationSettings`, which checks them; `evaluation` builds that
+    record.  They stay flat here, as config.json has always held them.
     """
 
     mode: str = "situational"
@@ -83,6 +83,9 @@ class EvolutionConfig:
     #: 0 (the paper): side arms at the crossing; B > 0 cm (map "plus"): the keyed episodes' plus variants also have
     #: their side arms leaving the top arm at offsets drawn from [0, B] (see EvaluationSettings.map_branch)
     map_branch: float = 0.0
+    #: with map_spread or map_branch: the first N keyed episodes of a generation on `map` itself, the others on
+    #: variants (see EvaluationSettings.plain_episodes)
+    plain_episodes: int = 0
     #: when the noisy evaluation starts (ROBUST_FROM); with "first_solution" the run is the noise-free run until its
     #: first solution, then the robust evaluation scores the generations after it (with stop_when_solved,
     #: `after_solved` of them): the solve rate of noise-free evolution, then selection for robustness
@@ -170,7 +173,7 @@ class EvolutionConfig:
         field for field that of the same run without noise (so that phase is bit-identical to it)."""
         return replace(self.evaluation, task=self.task.without_noise(), episodes=1, noise_draws="fixed",
                        aggregate="mean", quantile=0.25, noise_free_episode=False, map_spread=0.0,
-                       map_branch=0.0)
+                       map_branch=0.0, plain_episodes=0)
 
     @property
     def n_cppn_inputs(self) -> int:

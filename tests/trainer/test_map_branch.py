@@ -74,6 +74,41 @@ def test_keyed_episodes_are_played_on_branch_variants_and_the_clean_one_on_plus(
     assert not np.allclose(plain, fitness)
 
 
+def test_plain_episodes_keep_the_first_keyed_episodes_of_each_generation_on_plus(tmp_path):
+    cfg = apply_preset(EvolutionConfig(seed=4, init="minimal"), "hardened").with_overrides(
+        pop=8, robust_from="start", robust_delay=0, map_branch=20.0, plain_episodes=1)
+    genomes = Trainer(cfg, tmp_path).population.ask()
+    ev = TeamEvaluator(cfg.evaluation)
+    ctrl = ev.decode(genomes)
+    n = len(genomes)
+    for generation in (0, 5):
+        fitness, _ = ev.score(ctrl, generation=generation)
+        keys = ev.episode_keys(generation)
+        assert keys[0] % cfg.episodes == 0
+        expected = np.zeros(n)
+        for i, key in enumerate(keys):
+            world = "plus" if i == 0 else spread_variant(cfg.seed, key, 0.0, 20.0)
+            expected += BatchSim(world, n, cfg.task).run_controllers(
+                ctrl, seed=cfg.seed, episode_keys=np.full(n, key, dtype=np.int64)).fitness
+        expected += BatchSim("plus", n, cfg.task.without_noise()).run_controllers(
+            ctrl, seed=cfg.seed, episode_keys=np.zeros(n, dtype=np.int64)).fitness
+        assert fitness == pytest.approx(expected / 4, abs=1e-12)
+    all_variants, _ = TeamEvaluator(EvaluationSettings(**{**cfg.evaluation.__dict__, "plain_episodes": 0})).score(
+        ctrl, 5)
+    assert not np.allclose(all_variants, ev.score(ctrl, 5)[0])
+    with pytest.raises(ValueError, match="plain_episodes must be"):
+        EvaluationSettings(episodes=3, map_branch=20.0, plain_episodes=4)
+    with pytest.raises(ValueError, match="plain_episodes keeps"):
+        EvaluationSettings(episodes=3, plain_episodes=1)
+    assert cfg.noise_free_evaluation.plain_episodes == 0
+    args = build_parser().parse_args(["experiment", "--preset", "hardened", "--map-branch", "20",
+                                      "--plain-episodes", "1", "--after-solved", "250", "--out", "x"])
+    plan = experiment_plan(args)
+    assert plan.plain_episodes == 1 and plan.train_config("situational", 2).plain_episodes == 1
+    assert "the first 1 on the map itself (`--plain-episodes 1`), the others on a plus variant" in _robust_text(
+        plan.to_dict())
+
+
 def test_the_branch_is_checked_kept_out_of_the_noise_free_phase_and_reaches_the_report():
     with pytest.raises(ValueError, match="map_branch must be"):
         EvaluationSettings(map_branch=-5.0)
