@@ -102,6 +102,26 @@ def _threads_per_run(workers: int) -> int:
     return max(1, (os.cpu_count() or 1) // max(1, workers))
 
 
+def map_in_processes(fn: Callable[..., Any], items: Sequence[tuple], workers: int) -> list[Any]:
+    """[fn(*item) for item in items], on up to `workers` fresh processes (spawned, ended with this one) when
+    there is more than one item and worker; `fn` must be a module-level function.  For the report's independent,
+    deterministic pieces of work (each champion's transfer tests): the results are those of the serial loop,
+    in the items' order."""
+    if workers <= 1 or len(items) <= 1:
+        return [fn(*item) for item in items]
+    pool = ProcessPoolExecutor(max_workers=min(workers, len(items)), mp_context=get_context("spawn"),
+                               initializer=die_with_parent, initargs=(os.getpid(),))
+    try:
+        futures = [pool.submit(fn, *item) for item in items]
+        try:
+            return [f.result() for f in futures]
+        except BrokenProcessPool as exc:
+            raise RuntimeError("a worker process died (killed, or out of memory) during the report; the runs are "
+                               "saved: run the command again with --report-only") from exc
+    finally:
+        _stop_workers(pool)
+
+
 def run_local(tasks: Sequence[Task], workers: int, on_done: Callable[[str, dict], None] | None = None
               ) -> dict[str, dict[str, Any]]:
     """Runs in `workers` fresh processes (spawned: numba's thread pools do not survive a fork)."""

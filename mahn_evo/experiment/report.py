@@ -14,6 +14,7 @@ from mahn_envs.maps import load_map
 from ..plots import ROBOT_COLOURS, _mpl, draw_world
 from ..storage.files import atomic_write_csv, atomic_write_json, atomic_write_text, versioned
 from ..training.champion import Champion
+from .backends import map_in_processes
 from .plan import ExperimentPlan
 from .table import PAPER, RunRecord, curves, fisher, load_runs, mode_table
 from .transfer import TRANSFER_MAPS, most_general, replays, trajectories, transfer_tests
@@ -21,17 +22,24 @@ from .transfer import TRANSFER_MAPS, most_general, replays, trajectories, transf
 MODE_COLOURS = {"situational": "#0f9d58", "standard": "#4285f4"}
 
 
+def _transfer_file(path: str, plan: dict[str, Any]) -> dict[str, Any]:
+    """transfer_tests of the champion file at `path` (a worker process's job: plain arguments in and out)."""
+    return transfer_tests(Champion.load(path), ExperimentPlan.from_mapping(plan))
+
+
 def write_results(plan: ExperimentPlan, out: str | Path, runs_wall_seconds: float = 0.0,
-                  log: Callable[[str], None] = print) -> dict[str, Any]:
+                  log: Callable[[str], None] = print, workers: int = 1) -> dict[str, Any]:
+    """The experiment's results.json, runs.csv, results.md, figures and replays.  The most general solutions'
+    transfer tests (minutes each: the sequential protocol's episodes) run on up to `workers` processes."""
     out = Path(out)
     runs = load_runs(plan, out)
     table = mode_table(plan, runs)
     test = fisher(table, plan.modes)
-    general: dict[str, list[dict[str, Any]]] = {}
-    for mode in plan.modes:
-        general[mode] = most_general(plan, runs, mode, log)
-        for e in general[mode]:
-            e["transfer"] = transfer_tests(Champion.load(out / e["file"]), plan)
+    general: dict[str, list[dict[str, Any]]] = {mode: most_general(plan, runs, mode, log) for mode in plan.modes}
+    entries = [e for mode in plan.modes for e in general[mode]]
+    transfers = map_in_processes(_transfer_file, [(str(out / e["file"]), plan.to_dict()) for e in entries], workers)
+    for e, transfer in zip(entries, transfers):
+        e["transfer"] = transfer
     figures = _figures(plan, out, runs, general)
     films = []
     for entries in general.values():

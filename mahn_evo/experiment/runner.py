@@ -25,7 +25,7 @@ def run_experiment(plan: ExperimentPlan, out: str | Path, backend: str = "local"
     if not run:  # report on the experiment as saved, whatever plan the caller passed
         if not (out / PLAN_FILE).exists():
             raise ValueError(f"{str(out)!r} holds no experiment ({PLAN_FILE} missing); start it without --report-only")
-        return write_results(ExperimentPlan.load(out), out, log=log)
+        return write_results(ExperimentPlan.load(out), out, log=log, workers=workers)
     with folder_lock(out, "experiment folder"):
         return _run(plan, out, backend, workers, address, analyse, log)
 
@@ -57,4 +57,4 @@ def _run(plan: ExperimentPlan, out: Path, backend: str, workers: int, address: s
     wall = time.perf_counter() - t0
     if not analyse:
         return {}
-    return write_results(plan, out, runs_wall_seconds=wall, log=log)
+    return write_results(plan, out, runs_wall_seconds=wall, log=log, workers=workers if backend == "local" else 1)

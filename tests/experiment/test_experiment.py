@@ -11,6 +11,7 @@ from scipy.stats import fisher_exact
 
 from mahn_evo.cli import main
 from mahn_evo.experiment import ExperimentPlan, run_experiment
+from mahn_evo.experiment.report import write_results
 from mahn_evo.experiment.table import RunRecord, fisher, mode_table
 from mahn_evo.training.trainer import Trainer
 
@@ -116,6 +117,11 @@ def test_small_experiment_end_to_end_and_report_only(tmp_path):
     before = {p: p.stat().st_mtime_ns for p in (out / "runs").glob("*/log.csv")}
     assert main(["experiment", "--report-only", "--out", str(out)]) == 0
     assert before == {p: p.stat().st_mtime_ns for p in (out / "runs").glob("*/log.csv")}
+    # the transfer tests ran on two worker processes; one process gives the same numbers
+    serial = write_results(plan, out, log=_quiet, workers=1)
+    for mode in plan.modes:
+        assert [e["transfer"] for e in serial["most_general"][mode]] == \
+            [e["transfer"] for e in results["most_general"][mode]]
 
 
 def test_interrupted_experiment_resumes_bit_identically(tmp_path):

@@ -89,3 +89,14 @@ def test_an_experiment_refuses_to_run_beside_live_holders_of_its_folders(tmp_pat
     run_experiment(plan, out, workers=1, analyse=False, log=lambda m: None)
     assert all((out / "runs" / f"situational_s00{s}" / "summary.json").exists() for s in (5, 6))
     assert not list(out.rglob(".mahn.lock"))
+
+
+def test_map_in_processes_keeps_the_items_order_and_uses_other_processes():
+    from operator import mul
+
+    from mahn_evo.experiment.backends import map_in_processes
+
+    assert map_in_processes(mul, [(2, 3), (4, 5), (6, 7)], workers=2) == [6, 20, 42]
+    assert map_in_processes(mul, [(2, 3), (4, 5)], workers=1) == [6, 20]
+    pids = map_in_processes(os.getpid, [(), ()], workers=2)
+    assert os.getpid() not in pids
