@@ -25,8 +25,7 @@ PLAN_FILE = "experiment.json"
 #: the plan's fields that are EvolutionConfig fields of the same name, passed to every run as they are
 EVOLUTION_FIELDS = ("init", "evaluate_modules", "cppn_activation", "decision", "symmetry", "episodes", "noise_draws",
                     "aggregate", "quantile", "noise_free_episode", "map_spread", "map_branch", "plain_episodes",
-                    "robust_from",
-                    "robust_delay", "diversity", "diversity_k", "restart_every", "map", "after_solved")
+                    "robust_from", "robust_delay", "diversity", "diversity_k", "restart_every", "map", "after_solved")
 
 
 @dataclass(frozen=True)

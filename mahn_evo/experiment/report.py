@@ -36,9 +36,9 @@ def write_results(plan: ExperimentPlan, out: str | Path, runs_wall_seconds: floa
     table = mode_table(plan, runs)
     test = fisher(table, plan.modes)
     general: dict[str, list[dict[str, Any]]] = {mode: most_general(plan, runs, mode, log) for mode in plan.modes}
-    entries = [e for mode in plan.modes for e in general[mode]]
-    transfers = map_in_processes(_transfer_file, [(str(out / e["file"]), plan.to_dict()) for e in entries], workers)
-    for e, transfer in zip(entries, transfers):
+    chosen = [e for mode in plan.modes for e in general[mode]]
+    transfers = map_in_processes(_transfer_file, [(str(out / e["file"]), plan.to_dict()) for e in chosen], workers)
+    for e, transfer in zip(chosen, transfers):
         e["transfer"] = transfer
     figures = _figures(plan, out, runs, general)
     films = []

@@ -79,6 +79,11 @@ class EvaluationSettings:
     #: hardening traded plus for the test map: docs/results/experiment_harden_branch/)
     plain_episodes: int = 0
 
+    @property
+    def on_variants(self) -> bool:
+        """Whether keyed episodes are played on plus variants (map_spread or map_branch) instead of the map."""
+        return self.map_spread != 0.0 or self.map_branch != 0.0
+
     def __post_init__(self) -> None:
         if self.mode not in MODES:
             raise ValueError(f"mode must be one of {MODES}, got {self.mode!r}")
@@ -105,7 +110,7 @@ class EvaluationSettings:
                 or not 0 <= self.plain_episodes <= self.episodes:
             raise ValueError(f"plain_episodes must be an integer in [0, episodes = {self.episodes}], got "
                              f"{self.plain_episodes!r}")
-        if self.plain_episodes and self.map_spread == 0.0 and self.map_branch == 0.0:
+        if self.plain_episodes and not self.on_variants:
             raise ValueError("plain_episodes keeps some keyed episodes on the map instead of its variants, so it "
                              "needs map_spread or map_branch > 0 (without them every episode is on the map)")
         if self.cppn_activation == "relax" and not self.evaluate_modules:
@@ -220,7 +225,7 @@ class TeamEvaluator:
         """The simulator of keyed episode `key` for n teams: on the map, or with map_spread on the key's variant."""
         s = self.settings
         # key % episodes: the episode's place in its generation (keys run generation * K ... + K - 1, or 0 ... K - 1)
-        if (s.map_spread == 0.0 and s.map_branch == 0.0) or key % s.episodes < s.plain_episodes:
+        if not s.on_variants or key % s.episodes < s.plain_episodes:
             return self._sim(n)
         return BatchSim(spread_variant(s.seed, key, s.map_spread, s.map_branch), n, s.task)
 
