@@ -137,3 +137,17 @@ def test_the_published_branch_experiment_is_the_documented_command():
     args = build_parser().parse_args(["experiment", "--modes", "situational", "--runs", "15", "--seed", "1",
                                       "--preset", "hardened", "--map-branch", "40", "--after-solved", "250"])
     assert experiment_plan(args) == published
+
+
+def test_the_published_branch_plain_experiment_is_the_documented_command():
+    from pathlib import Path
+
+    from mahn_evo.experiment.plan import ExperimentPlan
+
+    page = Path(__file__).parents[2] / "docs" / "results" / "experiment_harden_branch_plain"
+    published = ExperimentPlan.load(page)
+    args = build_parser().parse_args(["experiment", "--modes", "situational", "--runs", "15", "--seed", "1",
+                                      "--preset", "hardened", "--map-branch", "40", "--plain-episodes", "1",
+                                      "--after-solved", "250"])
+    assert experiment_plan(args) == published
+    assert "--plain-episodes 1" in (page / "README.md").read_text()
