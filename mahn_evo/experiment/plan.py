@@ -18,7 +18,7 @@ from ..hyperneat.substrate import MODES
 from ..neat.settings import NeatSettings
 from ..storage.files import atomic_write_json, read_versioned_json, versioned
 from ..storage.migrate import V1_CHANGED_NEAT_DEFAULTS
-from ..training.config import INITS, EvolutionConfig
+from ..training.config import INITS, EvolutionConfig, continues_before_robust_phase
 
 PLAN_FILE = "experiment.json"
 
@@ -134,6 +134,16 @@ class ExperimentPlan:
     def load(cls, out: str | Path) -> ExperimentPlan:
         return cls.from_mapping(read_versioned_json(Path(out) / PLAN_FILE, "experiment"))
 
+    def hardens(self, saved: ExperimentPlan) -> bool:
+        """Whether this plan continues the runs of `saved` with a robust phase none of them has reached: every
+        run is then resumed from its checkpoint into the robust phase, bit for bit the run this plan would make
+        from the start (EvolutionConfig's `continues_before_robust_phase`).  The saved runs stopped at most
+        `saved.after_solved` generations after their first solution, so this plan's robust phase must start after
+        that (robust_delay >= saved.after_solved)."""
+        return self.robust_from == "first_solution" and saved.after_solved <= self.robust_delay and all(
+            continues_before_robust_phase(saved.train_config(m, self.seed), self.train_config(m, self.seed))
+            for m in self.modes)
+
     def save_or_check(self, out: str | Path) -> None:
         """Write experiment.json, or refuse if the folder holds an experiment with another plan."""
         path = Path(out) / PLAN_FILE
@@ -146,6 +156,8 @@ class ExperimentPlan:
             may_change = ("runs", "modes", "top", "general_episodes", "transfer_episodes", "replays")
             differing = sorted(k for k in a if a[k] != b[k] and k not in may_change
                                and not (k == "after_solved" and b[k] > a[k]))
+            if differing and self.hardens(saved):
+                differing = []
             if differing:
                 hint = ""
                 if "neat" in differing:

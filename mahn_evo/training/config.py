@@ -33,6 +33,14 @@ INITS = ("iros2011", "minimal")
 ROBUST_FROM = ("start", "first_solution")
 
 
+#: settings that only decide when a run ends; they may change when a run is resumed (e.g. more generations)
+STOPPING_RULES = ("generations", "stop_when_solved", "after_solved")
+#: settings that only score the generations of a robust phase (robust_from "first_solution"): a run may gain or
+#: change its robust phase when resumed before that phase has started (`continues_before_robust_phase`)
+ROBUST_PHASE_FIELDS = ("task", "episodes", "noise_draws", "aggregate", "quantile", "noise_free_episode",
+                       "map_spread", "map_branch", "plain_episodes", "robust_from", "robust_delay")
+
+
 def robust_phase_start(robust_from: str, robust_delay: int, first_solved: int | None) -> int | None:
     """The first generation a run scores under noise (None: its first solution, which decides it, is not known);
     the one rule the trainer and the experiment table both read."""
@@ -229,6 +237,23 @@ class EvolutionConfig:
             # the species count range follows the population size again (a range set for another size is stale)
             neat = neat.replace(population_size=pop, species_count_min=None, species_count_max=None)
         return replace(self, neat=neat, **changes)
+
+
+def continues_before_robust_phase(saved: EvolutionConfig, asked: EvolutionConfig) -> bool:
+    """Whether `asked` scores every generation before its robust phase exactly as `saved` scored the generations
+    before its own (all of them, when `saved` has none): `asked` has robust_from "first_solution" and the two differ
+    only in the robust phase's settings (ROBUST_PHASE_FIELDS, the noise-free episode aside) and the stopping rules.
+
+    Why: a solved run (e.g. of the noise-free `best-restarts` preset) can then be hardened under noise by resuming
+    it with a robust phase, bit for bit the run a fresh start with that phase would have made, provided it has not
+    yet run a generation the robust phase would have scored (see `Trainer`)."""
+    if asked.robust_from != "first_solution":
+        return False
+    before = saved.noise_free_evaluation if saved.robust_from == "first_solution" else saved.evaluation
+    if before != asked.noise_free_evaluation:
+        return False
+    a, b = saved.to_dict(), asked.to_dict()
+    return all(a[k] == b[k] for k in a if k not in ROBUST_PHASE_FIELDS + STOPPING_RULES)
 
 
 def load_config_file(path: str | Path, base: EvolutionConfig | None = None) -> EvolutionConfig:

@@ -42,11 +42,8 @@ from ..storage.files import (
 )
 from ..storage.folder_lock import check_folder_usable
 from .champion import Champion
-from .config import EvolutionConfig
+from .config import STOPPING_RULES, EvolutionConfig, continues_before_robust_phase
 from .diversity import selection_fitness
-
-#: settings that only decide when a run ends; they may change when a run is resumed (e.g. more generations)
-STOPPING_RULES = ("generations", "stop_when_solved", "after_solved")
 
 #: what a run writes into its folder; --overwrite removes exactly these (and archive/)
 RUN_FILES = ("config.json", "log.csv", "checkpoint.json", "summary.json", "champion.json", "fitness.png",
@@ -114,21 +111,35 @@ class Trainer:
         atomic_write_json(self.out / "config.json", versioned("config", config.to_dict()))
 
     # ------------------------------------------------------------------ checkpoint
-    def _check_same_run(self, saved_config: dict) -> None:
-        """The configuration a folder's run was made with must be the one asked for, but for STOPPING_RULES."""
+    def _check_same_run(self, saved_config: dict, generation: int = 0, first_solved: int | None = None) -> None:
+        """The configuration a folder's run was made with must be the one asked for, but for STOPPING_RULES; or the
+        asked one adds (or changes) a robust phase that has not started by `generation`, the next generation to
+        run (`continues_before_robust_phase`: the resumed run is then the fresh run of the asked configuration)."""
         # the values it was run with: keys added since keep their defaults, changed defaults their old values
-        saved = EvolutionConfig.from_saved(saved_config).to_dict()
-        asked = self.config.to_dict()
+        saved_cfg = EvolutionConfig.from_saved(saved_config)
+        saved, asked = saved_cfg.to_dict(), self.config.to_dict()
         differing = sorted(k for k in asked if k not in STOPPING_RULES and saved[k] != asked[k])
+        if differing and continues_before_robust_phase(saved_cfg, self.config):
+            starts = [c.robust_phase_start(first_solved) for c in (saved_cfg, self.config)
+                      if c.robust_from == "first_solution"]
+            begun = [s for s in starts if s is not None and s < generation]
+            if not begun:
+                differing = []
+            else:
+                raise ValueError(f"cannot resume {str(self.out)!r} with another robust phase: the run has scored "
+                                 f"generations up to {generation - 1}, and a robust phase starting at generation "
+                                 f"{min(begun)} would have scored some of them (a robust phase may be added or "
+                                 "changed only before it starts: give a longer robust_delay or start a new run)")
         if "neat" in differing:  # name the NEAT settings, so the message says what to set
             differing.remove("neat")
             differing += sorted(f"neat.{k}" for k in set(asked["neat"]) | set(saved["neat"])
                                 if saved["neat"].get(k) != asked["neat"].get(k))
         if differing:
             raise ValueError(f"cannot resume {str(self.out)!r}: configuration differs in {differing} "
-                             f"(only the stopping rules {list(STOPPING_RULES)} may change on resume; the run was "
-                             f"made with {_saved_values(saved, differing)})")
-        if any(saved[k] != asked[k] for k in STOPPING_RULES):
+                             f"(only the stopping rules {list(STOPPING_RULES)} may change on resume, and a robust "
+                             "phase that has not started; the run was made with "
+                             f"{_saved_values(saved, differing)})")
+        if saved != asked:
             atomic_write_json(self.out / "config.json", versioned("config", asked))
 
     def _resume(self, ckpt: Path) -> None:
@@ -137,7 +148,10 @@ class Trainer:
         try:
             if not isinstance(data.get("config"), dict):
                 raise KeyError("config")
-            self._check_same_run(data["config"])
+            generation, first_solved = data["population"]["generation"], data["trainer"]["first_solved"]
+            if not isinstance(generation, int) or not (first_solved is None or isinstance(first_solved, int)):
+                raise TypeError("'generation' and 'first_solved' must be whole numbers")
+            self._check_same_run(data["config"], generation, first_solved)
         except (KeyError, TypeError, AttributeError, IndexError) as exc:
             raise ValueError(f"{where}: missing or wrong field {exc}") from exc
         try:

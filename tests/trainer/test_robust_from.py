@@ -165,3 +165,57 @@ def test_the_hardened_preset_reproduces_the_published_hardening_experiment():
     assert experiment_plan(spelled_out) == published
     with pytest.raises(ValueError, match="before its robust phase"):
         experiment_plan(build_parser().parse_args(["experiment", "--preset", "hardened"]))
+
+
+def _noise_free_until(generation: int, folder) -> None:
+    """The noise-free run, solved at SOLVED_AT and stopped (checkpointed) before generation `generation`."""
+    clean = Trainer(_noise_free(), folder)
+    _declare_solved(clean)
+    while clean.generation < generation:
+        clean.step()
+    clean.finish()
+
+
+def test_a_solved_run_resumed_with_a_robust_phase_it_has_not_reached_is_the_hardened_run(tmp_path):
+    delay = 2
+    fresh = Trainer(_hardening(robust_delay=delay), tmp_path / "fresh")
+    _declare_solved(fresh)
+    while fresh.generation < 6:
+        fresh.step()
+    start = SOLVED_AT + delay + 1
+    _noise_free_until(start, tmp_path / "later")  # stopped just before the robust phase would start
+    later = Trainer(_hardening(robust_delay=delay), tmp_path / "later", resume=True)
+    assert later.first_solved == SOLVED_AT and later.generation == start
+    while later.generation < 6:
+        later.step()
+    assert _rows(later) == _rows(fresh)
+    assert later.rows[start][1] - later.rows[start - 1][1] == 24 * 2  # noisy episodes from the phase's start
+    assert later.finish()["robust_from_generation"] == start
+    saved = json.loads((tmp_path / "later" / "config.json").read_text())
+    assert (saved["robust_from"], saved["robust_delay"], saved["episodes"]) == ("first_solution", delay, 2)
+
+
+def test_a_robust_phase_is_refused_when_the_run_went_past_its_start(tmp_path):
+    _noise_free_until(SOLVED_AT + 3, tmp_path / "run")  # scored generation SOLVED_AT + 2 without noise
+    with pytest.raises(ValueError, match="robust phase starting at generation 3"):
+        Trainer(_hardening(robust_delay=1), tmp_path / "run", resume=True)
+    # anything else that changes how teams are scored is still refused
+    with pytest.raises(ValueError, match="differs in"):
+        Trainer(replace(_hardening(robust_delay=5), symmetry="best"), tmp_path / "run", resume=True)
+    with pytest.raises(ValueError, match="differs in"):
+        Trainer(replace(_noise_free(), episodes=2), tmp_path / "run", resume=True)
+    assert Trainer(_hardening(robust_delay=2), tmp_path / "run", resume=True).generation == SOLVED_AT + 3
+
+
+def test_an_experiment_may_harden_its_runs_when_they_stopped_before_the_robust_phase(tmp_path):
+    clean = ExperimentPlan(modes=("situational",), runs=2, after_solved=50)
+    clean.save_or_check(tmp_path)
+    hard = replace(clean, noise="generalization", episodes=3, noise_draws="per_generation", noise_free_episode=True,
+                   robust_from="first_solution", robust_delay=50, after_solved=250)
+    assert hard.hardens(clean)
+    with pytest.raises(ValueError, match="different plan"):
+        replace(hard, robust_delay=49).save_or_check(tmp_path)  # the runs scored generation solved + 50 noise-free
+    with pytest.raises(ValueError, match="different plan"):
+        replace(hard, symmetry="best").save_or_check(tmp_path)
+    hard.save_or_check(tmp_path)
+    assert ExperimentPlan.load(tmp_path) == hard
