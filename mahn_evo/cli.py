@@ -6,7 +6,7 @@ import json
 import sys
 from collections.abc import Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from mahn_envs.core.controller import DECISIONS
 
@@ -181,12 +181,13 @@ def _experiment_parser(sub) -> None:
     p.add_argument("--after-solved", type=int, default=d.after_solved,
                    help="generations a run continues after its first solution, so the generalisation test has "
                         "alternatives to choose from (default %(default)s)")
-    p.add_argument("--top", type=int, default=d.top, help="most general solutions per mode to transfer "
-                                                          "(default %(default)s, as the paper)")
-    p.add_argument("--general-episodes", type=int, default=d.general_episodes,
-                   help="noisy episodes of the generalisation test (default %(default)s)")
-    p.add_argument("--transfer-episodes", type=int, default=d.transfer_episodes,
-                   help="noisy episodes per transfer test (default %(default)s)")
+    # the analysis options default to None so that --report-only can tell which ones were given
+    p.add_argument("--top", type=int, help=f"most general solutions per mode to transfer (default {d.top}, as the "
+                                           "paper)")
+    p.add_argument("--general-episodes", type=int,
+                   help=f"noisy episodes of the generalisation test (default {d.general_episodes})")
+    p.add_argument("--transfer-episodes", type=int,
+                   help=f"noisy episodes per transfer test (default {d.transfer_episodes})")
     p.add_argument("--max-cycles", type=int, default=d.max_cycles, help=argparse.SUPPRESS)
     p.add_argument("--signal-tick", type=int, default=d.signal_tick, help=argparse.SUPPRESS)
     p.add_argument("--config", type=Path, help="TOML or JSON file whose `neat` table overrides NEAT settings")
@@ -198,7 +199,8 @@ def _experiment_parser(sub) -> None:
     p.add_argument("--no-analysis", action="store_true", help="only run the runs")
     p.add_argument("--report-only", action="store_true",
                    help="start no runs: write the results of the runs finished so far (e.g. while the experiment "
-                        "runs in another shell)")
+                        "runs in another shell), with the folder's saved plan; --top, --general-episodes and "
+                        "--transfer-episodes, when given, replace the saved ones (experiment.json is updated)")
 
 
 def _screen_parser(sub) -> None:
@@ -250,9 +252,14 @@ def experiment_plan(args: argparse.Namespace) -> ExperimentPlan:
         from_base["noise"] = base.noise_preset
     fields = {k: getattr(d, k) for k in chosen} | from_base | {k: v for k, v in chosen.items() if v is not None}
     return ExperimentPlan(modes=tuple(args.modes), runs=args.runs, seed=args.seed, generations=args.generations,
-                          population=args.pop, map=args.map, after_solved=args.after_solved, top=args.top,
-                          general_episodes=args.general_episodes, transfer_episodes=args.transfer_episodes,
+                          population=args.pop, map=args.map, after_solved=args.after_solved,
+                          **{k: d.to_dict()[k] if v is None else v for k, v in _analysis_options(args).items()},
                           max_cycles=args.max_cycles, signal_tick=args.signal_tick, neat=neat, **fields)
+
+
+def _analysis_options(args) -> dict[str, Any]:
+    """The report's options as given on the command line (None: not given)."""
+    return {"top": args.top, "general_episodes": args.general_episodes, "transfer_episodes": args.transfer_episodes}
 
 
 def cmd_experiment(args) -> int:
@@ -268,6 +275,7 @@ def cmd_experiment(args) -> int:
     try:
         results = run_experiment(plan, args.out, backend=args.backend, workers=args.workers, address=args.address,
                                  analyse=not args.no_analysis, run=not args.report_only,
+                                 analysis={k: v for k, v in _analysis_options(args).items() if v is not None},
                                  log=lambda m: print(m, flush=True))
     except KeyboardInterrupt:
         print(f"\ninterrupted; run the same command again to resume ({args.out})", file=sys.stderr)

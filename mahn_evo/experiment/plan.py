@@ -27,6 +27,9 @@ EVOLUTION_FIELDS = ("init", "evaluate_modules", "cppn_activation", "decision", "
                     "aggregate", "quantile", "noise_free_episode", "map_spread", "map_branch", "plain_episodes",
                     "robust_from", "robust_delay", "diversity", "diversity_k", "restart_every", "map", "after_solved")
 
+#: the report's options: they choose what is tested after the runs, so they may change in an experiment's folder
+REPORT_OPTIONS = ("top", "general_episodes", "transfer_episodes")
+
 
 @dataclass(frozen=True)
 class ExperimentPlan:
@@ -153,7 +156,7 @@ class ExperimentPlan:
             # a run is a pure function of its mode, seed and settings, so more runs, another mode beside the saved
             # ones, or another analysis leave every finished run valid; more generations after the first solution
             # continue the runs (from their checkpoints, bit-identically), fewer would leave them longer than planned
-            may_change = ("runs", "modes", "top", "general_episodes", "transfer_episodes", "replays")
+            may_change = ("runs", "modes", "replays", *REPORT_OPTIONS)
             differing = sorted(k for k in a if a[k] != b[k] and k not in may_change
                                and not (k == "after_solved" and b[k] > a[k]))
             if differing and self.hardens(saved):

@@ -8,24 +8,36 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
 from ..storage.files import remove_stray_temp_files
 from ..storage.folder_lock import folder_lock, lock_holder
 from .backends import run_tasks
-from .plan import PLAN_FILE, ExperimentPlan
+from .plan import PLAN_FILE, REPORT_OPTIONS, ExperimentPlan
 from .report import write_results
 
 
 def run_experiment(plan: ExperimentPlan, out: str | Path, backend: str = "local", workers: int = 2,
                    address: str | None = None, analyse: bool = True, run: bool = True,
-                   log: Callable[[str], None] = print) -> dict[str, Any]:
+                   log: Callable[[str], None] = print, analysis: dict[str, Any] | None = None) -> dict[str, Any]:
+    """Run (or resume) the experiment's runs and write its report.  With run=False, report on the experiment as
+    saved, whatever plan the caller passed, but for `analysis`: report options (top, general_episodes,
+    transfer_episodes) that replace the saved ones, in experiment.json too."""
     out = Path(out)
-    if not run:  # report on the experiment as saved, whatever plan the caller passed
+    if not run:
         if not (out / PLAN_FILE).exists():
             raise ValueError(f"{str(out)!r} holds no experiment ({PLAN_FILE} missing); start it without --report-only")
-        return write_results(ExperimentPlan.load(out), out, log=log, workers=workers)
+        saved = ExperimentPlan.load(out)
+        if analysis:
+            unknown = sorted(set(analysis) - set(REPORT_OPTIONS))
+            if unknown:
+                raise ValueError(f"report options are {list(REPORT_OPTIONS)}, got {unknown}")
+            saved = replace(saved, **analysis)
+            with folder_lock(out, "experiment folder"):
+                saved.save_or_check(out)
+        return write_results(saved, out, log=log, workers=workers)
     with folder_lock(out, "experiment folder"):
         return _run(plan, out, backend, workers, address, analyse, log)
 

@@ -117,6 +117,12 @@ def test_small_experiment_end_to_end_and_report_only(tmp_path):
     before = {p: p.stat().st_mtime_ns for p in (out / "runs").glob("*/log.csv")}
     assert main(["experiment", "--report-only", "--out", str(out)]) == 0
     assert before == {p: p.stat().st_mtime_ns for p in (out / "runs").glob("*/log.csv")}
+    # a report option given with --report-only replaces the saved one, in experiment.json too; others are ignored
+    assert main(["experiment", "--report-only", "--general-episodes", "2", "--seed", "9", "--out", str(out)]) == 0
+    assert ExperimentPlan.load(out) == replace(plan, general_episodes=2)
+    assert json.loads((out / "results.json").read_text())["plan"]["general_episodes"] == 2
+    assert main(["experiment", "--report-only", "--general-episodes", "3", "--out", str(out)]) == 0
+    assert ExperimentPlan.load(out) == plan
     # the transfer tests ran on two worker processes; one process gives the same numbers
     serial = write_results(plan, out, log=_quiet, workers=1)
     for mode in plan.modes:
