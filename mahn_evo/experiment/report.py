@@ -17,7 +17,15 @@ from ..training.champion import Champion
 from .backends import map_in_processes
 from .plan import ExperimentPlan
 from .table import PAPER, RunRecord, curves, fisher, load_runs, mode_table
-from .transfer import TRANSFER_MAPS, most_general, replays, trajectories, transfer_tests
+from .transfer import (
+    ROBUST_SUCCESS,
+    TRANSFER_MAPS,
+    most_general,
+    replays,
+    robust_on_every_map,
+    trajectories,
+    transfer_tests,
+)
 
 MODE_COLOURS = {"situational": "#0f9d58", "standard": "#4285f4"}
 
@@ -173,9 +181,13 @@ def markdown(results: dict[str, Any]) -> str:
                         f"{t['sequential_noisy']['success_fraction']:.2f} |")
             lines.append(row)
         n_ok = sum(e["transfer"]["transfers"] for e in entries)
+        n_robust = sum(robust_on_every_map(e["transfer"]) for e in entries)
         if entries:
+            filler = " |" * (5 + 4 * len(TRANSFER_MAPS))
             lines.append(f"| {mode}: **{n_ok}/{len(entries)}** succeed in the sequential protocol on both maps |"
-                         + " |" * (5 + 4 * len(TRANSFER_MAPS)))
+                         + filler)
+            lines.append(f"| {mode}: **{n_robust}/{len(entries)}** succeed in at least {ROBUST_SUCCESS:.0%} of the "
+                         "noisy sequential episodes on both maps (robust) |" + filler)
     lines += ["", f"Paper: {PAPER['transfer']}.", "", "## Figures", ""]
     for f in results["figures"]:
         lines.append(f"![{Path(f).stem}]({f})")

@@ -26,6 +26,16 @@ from .plan import ExperimentPlan
 from .table import RunRecord
 
 TRANSFER_MAPS = ("plus", "asymmetric_plus")
+# The robustness test of a transferred team (issue 15's target): this share of its noisy sequential episodes must
+# succeed on every transfer map.  The paper's own test is one real episode per map (`transfers`).
+ROBUST_SUCCESS = 0.8
+
+
+def robust_on_every_map(transfer: dict[str, Any]) -> bool:
+    """Whether a team's transfer tests (`transfer_tests`) pass the noisy sequential protocol on every transfer map
+    in at least ROBUST_SUCCESS of the episodes: the test a team must pass to be trusted on real robots, since one
+    noise-free episode per map (the paper's count) says nothing about a decision that noise flips."""
+    return all(transfer[m]["sequential_noisy"]["success_fraction"] >= ROBUST_SUCCESS - 1e-9 for m in TRANSFER_MAPS)
 
 
 def most_general(plan: ExperimentPlan, runs: list[RunRecord], mode: str,

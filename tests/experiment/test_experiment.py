@@ -13,6 +13,7 @@ from mahn_evo.cli import main
 from mahn_evo.experiment import ExperimentPlan, run_experiment
 from mahn_evo.experiment.report import write_results
 from mahn_evo.experiment.table import RunRecord, fisher, mode_table
+from mahn_evo.experiment.transfer import robust_on_every_map
 from mahn_evo.training.trainer import Trainer
 
 SMALL = dict(runs=2, seed=5, generations=3, population=16, max_cycles=240, signal_tick=120, general_episodes=3,
@@ -106,6 +107,10 @@ def test_small_experiment_end_to_end_and_report_only(tmp_path):
         assert summary["best_fitness"] == pytest.approx(run["best_fitness"])
     md = (out / "results.md").read_text()
     assert "| situational | 2 | 0 |" in md and "Fisher's exact test" in md
+    for mode in plan.modes:
+        n_robust = sum(robust_on_every_map(e["transfer"]) for e in results["most_general"][mode])
+        assert f"| {mode}: **{n_robust}/1** succeed in at least 80% of the noisy sequential episodes on both " \
+               "maps (robust) |" in md
     for fig in results["figures"]:
         assert (out / fig).stat().st_size > 1000
     assert len(results["replays"]) == 2 * 2 * 2  # modes x maps x protocols
@@ -201,3 +206,26 @@ def test_more_generations_after_the_solution_extend_an_experiment_fewer_are_refu
     assert ExperimentPlan.load(tmp_path).after_solved == 80
     with pytest.raises(ValueError, match="after_solved"):
         ExperimentPlan(**{**SMALL, "after_solved": 60}).save_or_check(tmp_path)
+
+
+def test_the_robust_count_needs_eight_of_ten_noisy_sequential_successes_on_every_map():
+    def transfer(plus: float, asym: float) -> dict:
+        return {"plus": {"sequential_noisy": {"success_fraction": plus}},
+                "asymmetric_plus": {"sequential_noisy": {"success_fraction": asym}}}
+
+    eight_of_ten = float(np.mean([True] * 8 + [False] * 2))
+    assert robust_on_every_map(transfer(eight_of_ten, 1.0))
+    assert not robust_on_every_map(transfer(1.0, 0.7)) and not robust_on_every_map(transfer(0.7, 0.9))
+
+
+
+def test_published_reports_are_what_the_report_renders_today():
+    """Every results page's results.md is the markdown of its results.json as the code renders it now, so a change
+    of the report (a new line, a new count) reaches the published pages (re-render them with `markdown`)."""
+    from mahn_evo.experiment.report import markdown
+
+    pages = sorted((Path(__file__).resolve().parents[2] / "docs" / "results").glob("*/results.json"))
+    assert len(pages) >= 10
+    stale = [p.parent.name for p in pages
+             if markdown(json.loads(p.read_text())) != (p.parent / "results.md").read_text()]
+    assert not stale, f"results.md differs from what its results.json renders to today: {stale}"
