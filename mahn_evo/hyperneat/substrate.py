@@ -122,10 +122,25 @@ def query_layout(mode: str, n_robots: int = 3) -> QueryLayout:
 
 
 def _weights_from_outputs(o: np.ndarray) -> np.ndarray:
-    """Threshold and scale CPPN weight outputs: |o| <= 0.2 -> no connection, else sign * 3 * (|o|-0.2)/0.8."""
+    """Threshold and scale CPPN weight outputs: |o| <= 0.2 -> no connection, else sign * 3 * (|o|-0.2)/0.8; an output
+    that is not a finite number gives no connection (see `_biases_from_outputs`)."""
     o64 = o.astype(np.float64)
     mag = np.abs(o64)
-    return np.where(mag > THRESHOLD, np.sign(o64) * WEIGHT_RANGE * (mag - THRESHOLD) / (1.0 - THRESHOLD), 0.0)
+    scaled = np.sign(o64) * WEIGHT_RANGE * (mag - THRESHOLD) / (1.0 - THRESHOLD)
+    return np.where((mag > THRESHOLD) & np.isfinite(mag), scaled, 0.0)
+
+
+def _biases_from_outputs(o: np.ndarray) -> np.ndarray:
+    """Scale CPPN bias outputs: 3 * o; an output that is not a finite number (NaN) gives no bias.
+
+    Why: the relaxation activation (`--cppn-activation relax`) can drive a CPPN with recurrent `abs` loops and
+    Multiply modules to float32 overflow and then to NaN (inf * 0); seen at generation 343 of situational seed 18
+    of the fresh-seed experiment, where it stopped the run.  A NaN weight output already gives no connection (it
+    fails the threshold test above), so a NaN bias output gives none either: the CPPN expresses nothing there.
+    Finite outputs decode as before, bit for bit."""
+    o64 = o.astype(np.float64)
+    finite = np.isfinite(o64)
+    return np.where(finite, WEIGHT_RANGE * np.where(finite, o64, 0.0), 0.0)
 
 
 def _normalise(columns: list[np.ndarray]) -> list[np.ndarray]:
@@ -167,9 +182,16 @@ def _weight(o):
     """`_weights_from_outputs` of one float32 output, in float64 with the same operations."""
     o64 = np.float64(o)
     mag = abs(o64)
-    if mag > THRESHOLD:
+    if mag > THRESHOLD and np.isfinite(mag):
         return np.sign(o64) * WEIGHT_RANGE * (mag - THRESHOLD) / (1.0 - THRESHOLD)
     return 0.0
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _bias(o):
+    """`_biases_from_outputs` of one float32 output."""
+    o64 = np.float64(o)
+    return np.float32(WEIGHT_RANGE * o64) if np.isfinite(o64) else np.float32(0.0)
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -220,14 +242,14 @@ def _decode(outputs, q_ih, q_hh, q_ho, q_bh, q_bo, normalise, w_ih, w_hh, w_ho, 
                         w_ih[n, r, k, i, j] = np.float32(_scaled(row[j], pos_scale, neg_scale))
                     for m in range(H):
                         w_hh[n, r, k, i, m] = np.float32(_scaled(row[n_in + m], pos_scale, neg_scale))
-                    b_h[n, r, k, i] = np.float32(WEIGHT_RANGE * np.float64(outputs[n, q_bh[r, k, i], 1]))
+                    b_h[n, r, k, i] = _bias(outputs[n, q_bh[r, k, i], 1])
                 for o in range(3):
                     for m in range(H):
                         row[m] = _weight(outputs[n, q_ho[r, k, o, m], 0])
                     pos_scale, neg_scale = _row_scales(row, H, normalise)
                     for m in range(H):
                         w_ho[n, r, k, o, m] = np.float32(_scaled(row[m], pos_scale, neg_scale))
-                    b_o[n, r, k, o] = np.float32(WEIGHT_RANGE * np.float64(outputs[n, q_bo[r, k, o], 1]))
+                    b_o[n, r, k, o] = _bias(outputs[n, q_bo[r, k, o], 1])
 
 
 def decode_outputs_numpy(outputs: np.ndarray, layout: QueryLayout, normalise: bool = True) -> TeamControllers:
@@ -243,8 +265,8 @@ def decode_outputs_numpy(outputs: np.ndarray, layout: QueryLayout, normalise: bo
     if normalise:
         w_ih, w_hh = _normalise([w_ih, w_hh])
         (w_ho,) = _normalise([w_ho])
-    b_h = WEIGHT_RANGE * b_out[:, layout.q_bh]
-    b_o = WEIGHT_RANGE * b_out[:, layout.q_bo]
+    b_h = _biases_from_outputs(b_out[:, layout.q_bh])
+    b_o = _biases_from_outputs(b_out[:, layout.q_bo])
     return TeamControllers(w_ih.astype(np.float32), w_hh.astype(np.float32), w_ho.astype(np.float32),
                            b_h.astype(np.float32), b_o.astype(np.float32))
 

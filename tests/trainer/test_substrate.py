@@ -49,3 +49,26 @@ def test_threshold_scale_and_normalisation():
     neg = np.where(inc < 0, inc, 0).sum(-1)
     assert np.allclose(pos[pos > 0], 3, atol=1e-5) and np.allclose(neg[neg < 0], -3, atol=1e-5)
     assert np.allclose(norm.b_h[0], 3 * out[0, layout.q_bh, 1], atol=1e-6)  # biases: 3 * out1, not normalised
+
+
+def test_non_finite_cppn_outputs_express_nothing():
+    """The relaxation activation can overflow a CPPN to NaN (seen at generation 343 of situational seed 18, which it
+    stopped with 'controller array b_h contains NaN'): such an output gives no connection and no bias, in the
+    compiled decoder and its array reference alike, and the other outputs decode as they would otherwise."""
+    from mahn_evo.hyperneat.substrate import decode_outputs_numpy
+
+    layout = query_layout("situational")
+    Q = layout.queries.shape[0]
+    out = np.random.default_rng(1).uniform(-1, 1, size=(2, Q, 2)).astype(np.float32)
+    clean = decode_outputs(out, layout)
+    bad = out.copy()
+    bad[0, layout.q_bh[0, 0, 2], 1] = np.nan
+    bad[0, layout.q_bo[1, 1, 0], 1] = np.inf
+    bad[0, layout.q_hh[2, 0, 4, 1], 0] = np.nan
+    bad[0, layout.q_ho[0, 1, 2, 3], 0] = -np.inf
+    for decode in (decode_outputs, decode_outputs_numpy):
+        team = decode(bad, layout)  # TeamControllers refuses non-finite arrays, so this alone checks finiteness
+        assert team.b_h[0, 0, 0, 2] == 0 and team.b_o[0, 1, 1, 0] == 0
+        assert team.w_hh[0, 2, 0, 4, 1] == 0 and team.w_ho[0, 0, 1, 2, 3] == 0
+        assert np.array_equal(team.b_h[1], clean.b_h[1]) and np.array_equal(team.w_ih[1], clean.w_ih[1])
+        assert np.array_equal(team.b_h[0, 1], clean.b_h[0, 1])
