@@ -139,8 +139,7 @@ def _biases_from_outputs(o: np.ndarray) -> np.ndarray:
     fails the threshold test above), so a NaN bias output gives none either: the CPPN expresses nothing there.
     Finite outputs decode as before, bit for bit."""
     o64 = o.astype(np.float64)
-    finite = np.isfinite(o64)
-    return np.where(finite, WEIGHT_RANGE * np.where(finite, o64, 0.0), 0.0)
+    return np.where(np.isfinite(o64), WEIGHT_RANGE * o64, 0.0)
 
 
 def _normalise(columns: list[np.ndarray]) -> list[np.ndarray]:
