@@ -70,6 +70,11 @@ def _fidelity_and_robustness_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--robust-delay", type=int, metavar="G",
                    help="with --robust-from first_solution: G noise-free generations after the first solution "
                         "before the noisy ones, so the solution spreads through the population first (default 0)")
+    p.add_argument("--noise-free-branch", type=float, metavar="B",
+                   help="with --robust-from first_solution (map plus): before the robust phase, score every team on "
+                        "two noise-free episodes, plus and a plus variant whose side arms leave the top arm at "
+                        "offsets drawn from [0, B] cm (new each generation), so a first solution also solves an "
+                        "asymmetric crossing (default 0: plus alone, the faithful run)")
     p.add_argument("--diversity", type=float, metavar="W",
                    help="behavioural diversity: NEAT selects by fitness + W x the mean distance (cm) of a team's "
                         "robot end positions to its nearest teams in the generation (default 0: fitness alone, as "
@@ -241,7 +246,8 @@ def experiment_plan(args: argparse.Namespace) -> ExperimentPlan:
               "noise_free_episode": args.noise_free_episode, "map_spread": args.map_spread,
               "map_branch": args.map_branch, "plain_episodes": args.plain_episodes,
               "robust_from": args.robust_from,
-              "robust_delay": args.robust_delay, "diversity": args.diversity, "diversity_k": args.diversity_k,
+              "robust_delay": args.robust_delay, "noise_free_branch": args.noise_free_branch,
+              "diversity": args.diversity, "diversity_k": args.diversity_k,
               "restart_every": args.restart_every}
     # a preset or config file sets the evaluation fields (not the plan's scale: map and after_solved are flags)
     from_base = {k: getattr(base, k) for k in EVOLUTION_FIELDS if k in chosen and (args.preset or args.config)}
@@ -350,7 +356,8 @@ def cmd_train(args) -> int:
     if args.noise is not None:
         config = config.with_noise(args.noise)
     # after the noise: robust_from "first_solution" needs a noisy task
-    config = config.with_overrides(robust_from=args.robust_from, robust_delay=args.robust_delay)
+    config = config.with_overrides(robust_from=args.robust_from, robust_delay=args.robust_delay,
+                                   noise_free_branch=args.noise_free_branch)
     from .storage.folder_lock import folder_lock
 
     with folder_lock(args.out, "run folder"):

@@ -25,7 +25,8 @@ PLAN_FILE = "experiment.json"
 #: the plan's fields that are EvolutionConfig fields of the same name, passed to every run as they are
 EVOLUTION_FIELDS = ("init", "evaluate_modules", "cppn_activation", "decision", "symmetry", "episodes", "noise_draws",
                     "aggregate", "quantile", "noise_free_episode", "map_spread", "map_branch", "plain_episodes",
-                    "robust_from", "robust_delay", "diversity", "diversity_k", "restart_every", "map", "after_solved")
+                    "robust_from", "robust_delay", "noise_free_branch", "diversity", "diversity_k", "restart_every",
+                    "map", "after_solved")
 
 #: the report's options: they choose what is tested after the runs, so they may change in an experiment's folder
 REPORT_OPTIONS = ("top", "general_episodes", "transfer_episodes")
@@ -56,6 +57,7 @@ class ExperimentPlan:
     #: "start" or "first_solution": robust evaluation from the first generation, or only after the first solution
     robust_from: str = "start"
     robust_delay: int = 0  # with robust_from "first_solution": noise-free generations after it first
+    noise_free_branch: float = 0.0  # and the noise-free phase also on a branch variant of plus (EvolutionConfig)
     #: behavioural-diversity selection (see EvolutionConfig.diversity): 0 selects by fitness alone
     diversity: float = 0.0
     diversity_k: int = 15
@@ -103,8 +105,10 @@ class ExperimentPlan:
         # with_noise follows, so a noise-dependent check (robust_from) sees the task's noise: build without it first
         shared = {k: getattr(self, k) for k in EVOLUTION_FIELDS}
         base = EvolutionConfig(mode=mode, generations=self.generations, seed=seed, stop_when_solved=True,
-                               **{**shared, "robust_from": "start", "robust_delay": 0}).with_noise(self.noise)
-        base = replace(base, robust_from=self.robust_from, robust_delay=self.robust_delay)
+                               **{**shared, "robust_from": "start", "robust_delay": 0,
+                                  "noise_free_branch": 0.0}).with_noise(self.noise)
+        base = replace(base, robust_from=self.robust_from, robust_delay=self.robust_delay,
+                       noise_free_branch=self.noise_free_branch)
         base = base.with_overrides(pop=self.population)
         if self.neat:
             base = EvolutionConfig.from_mapping({**base.to_dict(), "neat": {**base.neat.to_dict(), **self.neat,

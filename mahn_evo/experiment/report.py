@@ -100,8 +100,11 @@ def _robust_text(plan: dict[str, Any]) -> str:
             f"{', plus one noise-free episode' if plan.get('noise_free_episode') else ''}"
             f"{' on the map itself' if plan.get('noise_free_episode') and maps else ''})")
     if plan.get("robust_from", "start") == "first_solution":
-        return (f"; noise-free until a run's first solution and {plan.get('robust_delay', 0)} generation(s) more, "
-                f"then {text}")
+        clean_branch = float(plan.get("noise_free_branch", 0.0))
+        on = (f" (on plus and on a plus variant with side arms leaving the top arm [0, {clean_branch:g}] cm above "
+              f"the crossing, new each generation: `--noise-free-branch {clean_branch:g}`)") if clean_branch else ""
+        return (f"; noise-free{on} until a run's first solution and {plan.get('robust_delay', 0)} generation(s) "
+                f"more, then {text}")
     return f"; {text}"
 
 

@@ -16,6 +16,7 @@ import numpy as np
 
 from mahn_envs.core import TaskParams
 from mahn_envs.jsonfile import read_text_file
+from mahn_envs.maps.variants import check_branch
 
 from ..evaluation.task_setup import NOISE_PRESETS
 from ..hyperneat.team_evaluator import EvaluationSettings
@@ -98,6 +99,14 @@ class EvolutionConfig:
     #: first solution, then the robust evaluation scores the generations after it (with stop_when_solved,
     #: `after_solved` of them): the solve rate of noise-free evolution, then selection for robustness
     robust_from: str = "start"
+    #: with robust_from "first_solution": B > 0 cm scores every team of the noise-free phase on two noise-free
+    #: episodes, one on `map` (plus) and one on a plus variant whose side arms leave the top arm at offsets drawn from
+    #: [0, B] (a new variant each generation, the same for all its teams): exactly the evaluation of `--episodes 2
+    #: --map-branch B --plain-episodes 1 --noise-draws per_generation` without noise, so such a run can be hardened
+    #: by resuming it.  A first solution then solves plus and an asymmetric crossing.  Why: hardening after a
+    #: first solution on plus alone left the test map's branch where it was (docs/results/
+    #: experiment_fresh_seeds_hardened/), so the turn rule has to meet a branch before the solution fixes it.
+    noise_free_branch: float = 0.0
     #: with robust_from "first_solution": noise-free generations after the first solution before the robust phase.
     #: A first solution is one genome; within a few dozen noise-free generations it spreads to 50-100 (the faithful
     #: runs' logs), which gives the robust phase solved variants to select among.  Hardening at once (0) lost the
@@ -151,6 +160,20 @@ class EvolutionConfig:
             raise ValueError(f"the run stops {self.after_solved} generation(s) after its first solution, before its "
                              f"robust phase (robust_delay {self.robust_delay}): give after_solved more than "
                              f"{self.robust_delay} (docs/results/experiment_harden/ used 250 with delay 50)")
+        if self.noise_free_branch != 0.0:
+            try:
+                check_branch(self.noise_free_branch)
+            except ValueError as e:
+                raise ValueError(f"noise_free_branch is the map_branch of the noise-free phase: {e}") from None
+            if self.robust_from != "first_solution":
+                raise ValueError("noise_free_branch scores the noise-free phase before a first solution on a branch "
+                                 "variant too: it needs robust_from 'first_solution' (a run without that phase "
+                                 "gets the same evaluation from episodes 2, map_branch B, plain_episodes 1 and "
+                                 "noise_draws 'per_generation')")
+            try:
+                _ = self.noise_free_evaluation  # checks the rest (EvaluationSettings: the map must be plus)
+            except ValueError as e:
+                raise ValueError(f"noise_free_branch: {e}") from None
         if self.robust_from != "start" and self.task == self.task.without_noise():
             raise ValueError(f"robust_from {self.robust_from!r} switches to a noisy evaluation, but the task has no "
                              "noise: choose a noise preset (--noise generalization)")
@@ -178,10 +201,16 @@ class EvolutionConfig:
     @property
     def noise_free_evaluation(self) -> EvaluationSettings:
         """The evaluation before the first solution when robust_from is "first_solution": one noise-free episode,
-        field for field that of the same run without noise (so that phase is bit-identical to it)."""
-        return replace(self.evaluation, task=self.task.without_noise(), episodes=1, noise_draws="fixed",
-                       aggregate="mean", quantile=0.25, noise_free_episode=False, map_spread=0.0,
-                       map_branch=0.0, plain_episodes=0)
+        field for field that of the same run without noise (so that phase is bit-identical to it); with
+        noise_free_branch B, two: on the map and on a branch variant, as the noise-free run with episodes 2,
+        map_branch B, plain_episodes 1 and per-generation draws."""
+        clean = replace(self.evaluation, task=self.task.without_noise(), episodes=1, noise_draws="fixed",
+                        aggregate="mean", quantile=0.25, noise_free_episode=False, map_spread=0.0,
+                        map_branch=0.0, plain_episodes=0)
+        if self.noise_free_branch == 0.0:
+            return clean
+        return replace(clean, episodes=2, noise_draws="per_generation", map_branch=self.noise_free_branch,
+                       plain_episodes=1)
 
     @property
     def n_cppn_inputs(self) -> int:
@@ -253,7 +282,8 @@ def continues_before_robust_phase(saved: EvolutionConfig, asked: EvolutionConfig
     if before != asked.noise_free_evaluation:
         return False
     a, b = saved.to_dict(), asked.to_dict()
-    return all(a[k] == b[k] for k in a if k not in ROBUST_PHASE_FIELDS + STOPPING_RULES)
+    # noise_free_branch only shapes the evaluation before the robust phase, whose equality is checked above
+    return all(a[k] == b[k] for k in a if k not in ROBUST_PHASE_FIELDS + STOPPING_RULES + ("noise_free_branch",))
 
 
 def load_config_file(path: str | Path, base: EvolutionConfig | None = None) -> EvolutionConfig:

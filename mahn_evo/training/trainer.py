@@ -201,7 +201,7 @@ class Trainer:
         if self.noise_free_evaluator is not None:
             start = cfg.robust_phase_start(self.first_solved)
             if start is None or gen < start:
-                evaluator, episodes = self.noise_free_evaluator, 1
+                evaluator, episodes = self.noise_free_evaluator, self.noise_free_evaluator.settings.episodes
             elif gen == start:
                 # the robust phase starts: its champion and archive are the best teams under the robust evaluation
                 # (noise-free scores are not comparable with aggregated noisy ones)

@@ -151,3 +151,74 @@ def test_the_published_branch_plain_experiment_is_the_documented_command():
                                       "--after-solved", "250"])
     assert experiment_plan(args) == published
     assert "--plain-episodes 1" in (page / "README.md").read_text()
+
+
+def _branch_clean_run(seed: int = 7) -> EvolutionConfig:
+    """A noise-free run scored on plus and one branch variant per generation (robust_from start, no noise)."""
+    return EvolutionConfig(generations=6, seed=seed, episodes=2, map_branch=40.0, plain_episodes=1,
+                           noise_draws="per_generation").with_overrides(pop=24)
+
+
+def _branch_then_hardened(seed: int = 7, robust_delay: int = 2) -> EvolutionConfig:
+    """The same noise-free phase as `_branch_clean_run` (noise_free_branch), then 2 noisy + 1 noise-free episodes."""
+    cfg = EvolutionConfig(generations=6, seed=seed, episodes=2, noise_draws="per_generation",
+                          noise_free_episode=True).with_overrides(pop=24).with_noise("generalization")
+    return cfg.with_overrides(robust_from="first_solution", robust_delay=robust_delay, noise_free_branch=40.0)
+
+
+def test_noise_free_branch_scores_the_noise_free_phase_on_plus_and_a_branch_variant():
+    hard = _branch_then_hardened()
+    clean = hard.noise_free_evaluation
+    assert clean == _branch_clean_run().evaluation  # the noise-free branch run, field for field
+    assert (clean.episodes, clean.map_branch, clean.plain_episodes, clean.noise_draws) == (2, 40.0, 1, "per_generation")
+    assert clean.task == hard.task.without_noise() and hard.evaluation.map_branch == 0.0  # the robust phase: plus
+    ev = TeamEvaluator(clean)
+    assert ev.episode_keys(3) == [6, 7]  # generation 3: key 6 on plus, key 7 on its own branch variant
+    assert ev._keyed_sim(6, 2).world is ev._sim(2).world
+    assert ev._keyed_sim(7, 2).world.name == spread_variant(7, 7, 0.0, 40.0).name != "plus"
+    assert EvolutionConfig.from_mapping(hard.to_dict()) == hard
+    with pytest.raises(ValueError, match="needs robust_from 'first_solution'"):
+        _branch_clean_run().with_overrides(noise_free_branch=40.0)
+    with pytest.raises(ValueError, match="noise_free_branch is the map_branch of the noise-free phase"):
+        hard.with_overrides(noise_free_branch=60.0)
+    with pytest.raises(ValueError, match="noise_free_branch: map_branch draws variants of the plus map"):
+        hard.with_overrides(map="asymmetric_plus")
+    train = build_parser().parse_args(["train", "--preset", "hardened", "--noise-free-branch", "40", "--out", "y"])
+    assert train.noise_free_branch == 40.0
+    args = build_parser().parse_args(["experiment", "--preset", "hardened", "--noise-free-branch", "40",
+                                      "--after-solved", "250", "--out", "x"])
+    plan = experiment_plan(args)
+    assert plan.noise_free_branch == 40.0 and plan.train_config("situational", 2).noise_free_branch == 40.0
+    assert plan.train_config("situational", 2).noise_free_evaluation.map_branch == 40.0
+    assert ("noise-free (on plus and on a plus variant with side arms leaving the top arm [0, 40] cm above the "
+            "crossing, new each generation: `--noise-free-branch 40`) until a run's first solution") \
+        in _robust_text(plan.to_dict())
+
+
+def test_a_solved_noise_free_branch_run_resumed_into_a_robust_phase_is_the_fresh_run(tmp_path):
+    """A screen's noise-free branch runs can be hardened: resumed before the robust phase, bit for bit the run the
+    hardening configuration makes from the start."""
+    solved_at, delay = 1, 2
+    start = solved_at + delay + 1
+
+    def declare_solved(t: Trainer) -> None:
+        while t.generation <= solved_at:
+            t.step()
+        t.first_solved = solved_at
+
+    fresh = Trainer(_branch_then_hardened(robust_delay=delay), tmp_path / "fresh")
+    declare_solved(fresh)
+    while fresh.generation < 6:
+        fresh.step()
+    clean = Trainer(_branch_clean_run(), tmp_path / "later")
+    declare_solved(clean)
+    while clean.generation < start:
+        clean.step()
+    clean.finish()
+    later = Trainer(_branch_then_hardened(robust_delay=delay), tmp_path / "later", resume=True)
+    assert later.first_solved == solved_at and later.generation == start
+    while later.generation < 6:
+        later.step()
+    assert [r[:-1] for r in later.rows] == [r[:-1] for r in fresh.rows]
+    assert later.rows[start - 1][1] - later.rows[start - 2][1] == 24 * 2  # plus and the branch variant
+    assert later.rows[start][1] - later.rows[start - 1][1] == 24 * 2  # then the noisy episodes (as counted)
