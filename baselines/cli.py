@@ -117,9 +117,14 @@ def build_parser() -> argparse.ArgumentParser:
     cm = sub.add_parser("cmaes", help="direct-encoding control: CMA-ES on the substrate networks (resumable)")
     cm.add_argument("--mode", choices=("situational", "standard"), default="situational",
                     help="policy geometry of the evolved networks (default %(default)s)")
-    cm.add_argument("--generations", type=int, required=True, help="CMA-ES generations to run")
+    cm.add_argument("--generations", type=int, required=True,
+                    help="CMA-ES generations to run (with restarts: the budget is this many of the first search's)")
     cm.add_argument("--popsize", type=int, default=100, help="candidates per generation (default %(default)s)")
     cm.add_argument("--sigma0", type=float, default=1.0, help="initial step size (default %(default)s)")
+    cm.add_argument("--restart-patience", type=int, default=0, metavar="P",
+                    help="IPOP-CMA-ES: when a search's best has not risen for P generations, restart with twice the "
+                         "population until the budget (--generations x --popsize candidates) is spent (default 0: "
+                         "one search)")
     _direct_run_options(cm, folder="history, log, summary", unit="candidate")
 
     nd = sub.add_parser("neat-direct", help="direct-encoding control: mahn's NEAT evolving the substrate networks "
@@ -202,7 +207,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 
             cma_cfg = CMAConfig(mode=a.mode, generations=a.generations, popsize=a.popsize, sigma0=a.sigma0,
                                 seed=a.seed, map=a.map, episodes=a.episodes, max_cycles=a.max_cycles,
-                                signal_tick=a.signal_tick)
+                                signal_tick=a.signal_tick, restart_patience=a.restart_patience)
             summary = cma_train(cma_cfg, a.out, resume=a.resume, checkpoint_every=a.checkpoint_every,
                                 on_generation=lambda r: print(f"generation {r[0]}  best {r[2]:.3f}  best ever "
                                                               f"{r[4]:.3f}  sigma {r[7]:.3f}", flush=True))

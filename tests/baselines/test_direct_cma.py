@@ -101,3 +101,54 @@ def test_a_finished_run_is_not_replayed(tmp_path, monkeypatch):
     first = train(CMAConfig(generations=2, **base), tmp_path / "run")
     monkeypatch.setattr(DirectCMA, "__init__", lambda *a, **k: pytest.fail("replayed a finished run"))
     assert train(CMAConfig(generations=2, **base), tmp_path / "run", resume=True) == first
+
+
+def test_restarts_double_the_population_within_the_budget_and_resume_by_replay(tmp_path):
+    """IPOP: on the 60-tick task no search gains 0.1 fitness in 2 generations, so the first search (4 candidates)
+    restarts after generation 2 with 8; the budget of 6 x 4 = 24 candidates then allows one generation of 8."""
+    base = dict(mode="standard", popsize=4, seed=3, max_cycles=60, signal_tick=30, restart_patience=2)
+    straight = train(CMAConfig(generations=6, **base), tmp_path / "straight", checkpoint_every=1)
+    assert straight["searches"] == [{"generation": 0, "popsize": 4}, {"generation": 3, "popsize": 8}]
+    assert straight["generations"] == 4 and straight["evaluations"] == 3 * 4 + 8 <= 24
+    with np.load(tmp_path / "straight" / "history.npz") as f:
+        assert list(f["popsizes"]) == [4, 4, 4, 8] and f["fitness"].shape == (20,)
+    log = json.loads((tmp_path / "straight" / "checkpoint.json").read_text())["log"]
+    assert [r[1] for r in log] == [4, 8, 12, 20]  # evaluations, cumulative
+    assert log[3][7] == pytest.approx(CMAConfig().sigma0, rel=0.5)  # the new search starts at sigma0 again
+    # stopped at a budget of 3 generations (the restart already due), then resumed to 6: the same search
+    train(CMAConfig(generations=3, **base), tmp_path / "resumed")
+    resumed = train(CMAConfig(generations=6, **base), tmp_path / "resumed", resume=True)
+    a = json.loads((tmp_path / "straight" / "checkpoint.json").read_text())
+    b = json.loads((tmp_path / "resumed" / "checkpoint.json").read_text())
+    assert a["digest"] == b["digest"] and [r[:-2] for r in a["log"]] == [r[:-2] for r in b["log"]]
+    assert resumed["searches"] == straight["searches"] and b["budget_spent"] == 24
+    assert straight["method"] == "ipop_cmaes_direct_standard"  # kept apart from single searches in comparisons
+    # a history whose population sizes disagree with the restarts is not this run's
+    with np.load(tmp_path / "resumed" / "history.npz") as f:
+        fitness = f["fitness"]
+    np.savez(tmp_path / "resumed" / "history.npz", fitness=fitness, popsizes=np.array([4, 4, 4, 4, 4]))
+    with pytest.raises(ValueError, match="generation 3, whose search asks 8"):
+        DirectCMA(CMAConfig(generations=8, **base), tmp_path / "resumed", resume=True)
+    np.savez(tmp_path / "resumed" / "history.npz", fitness=fitness[:7], popsizes=np.array([4, 4, 4, 8]))
+    with pytest.raises(ValueError, match="is damaged"):
+        DirectCMA(CMAConfig(generations=8, **base), tmp_path / "resumed", resume=True)
+    with pytest.raises(ValueError, match="restart_patience"):
+        CMAConfig(restart_patience=-1)
+
+
+def test_a_history_written_before_restarts_still_resumes(tmp_path):
+    """Runs made before restarts (situational seeds 1-2 at HyperNEAT's budget) saved a (generations x popsize)
+    array: they replay to the same search."""
+    base = dict(mode="standard", popsize=4, seed=1, max_cycles=60, signal_tick=30)
+    train(CMAConfig(generations=3, **base), tmp_path / "run")
+    with np.load(tmp_path / "run" / "history.npz") as f:
+        old = f["fitness"].reshape(3, 4)
+    np.savez(tmp_path / "run" / "history.npz", fitness=old)
+    saved = json.loads((tmp_path / "run" / "checkpoint.json").read_text())
+    run = DirectCMA(CMAConfig(generations=5, **base), tmp_path / "run", resume=True)
+    assert run.generation == 3 and run.searches == [0]
+    run.run()
+    straight = train(CMAConfig(generations=5, **base), tmp_path / "straight")
+    assert json.loads((tmp_path / "run" / "checkpoint.json").read_text())["digest"] == json.loads(
+        (tmp_path / "straight" / "checkpoint.json").read_text())["digest"] != saved["digest"]
+    assert "searches" not in straight  # one search: the summary of runs without restarts
