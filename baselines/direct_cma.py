@@ -21,8 +21,8 @@ Run folder (resumable, deterministic from the seed):
   log.csv           generation, evaluations, best_fitness, mean_fitness, best_ever, solved, n_solved, sigma,
                     seconds (the columns `baselines.compare.evo_curve` reads; budget = evaluations x ticks x 3)
   best_controllers.json  the best team so far (TeamControllers JSON, with its fitness)
-  summary.json      method `cmaes_direct_<mode>` (`ipop_cmaes_direct_<mode>` with restarts), seed, best fitness, solved, evaluations, wall time (and, with
-                    restarts, the generation each search started at)
+  summary.json      method `cmaes_direct_<mode>` (`ipop_cmaes_direct_<mode>` with restarts), seed, best fitness,
+                    solved, evaluations, wall time (and, with restarts, where each search started)
 Restarts (`restart_patience` P > 0, IPOP-CMA-ES, Auger and Hansen 2005): when the current search's best fitness has
 not risen by RESTART_MIN_DELTA for P generations, a new search starts from the same point and step size with twice
 the population, until the budget of `generations` x `popsize` candidates is spent.  Why: one CMA-ES converges

@@ -9,6 +9,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from mahn_envs.core.controller import DECISIONS
+from mahn_envs.maps.variants import BRANCH_SIDES
 
 from .cppn import CPPN_ACTIVATIONS
 from .evaluation.task_setup import NOISE_PRESETS
@@ -60,6 +61,10 @@ def _fidelity_and_robustness_options(p: argparse.ArgumentParser) -> None:
                    help="map plus only: the keyed (noisy) episodes' plus variants also have their left and right "
                         "arms leaving the top arm at offsets drawn from [0, B] cm above the crossing (default 0: at "
                         "the crossing), so a turn cannot rest on both sides of the crossing opening at once")
+    p.add_argument("--branch-sides", choices=BRANCH_SIDES,
+                   help="with --map-branch: both (default: each side arm's offset from [0, B]) or one (a random "
+                        "side at the crossing, the other from [corridor width, B], so the two openings never "
+                        "overlap and a turn cannot wait for both)")
     p.add_argument("--plain-episodes", type=int, metavar="N",
                    help="with --map-spread or --map-branch: play the first N keyed (noisy) episodes of each "
                         "generation on the map itself and only the others on variants (default 0)")
@@ -244,7 +249,8 @@ def experiment_plan(args: argparse.Namespace) -> ExperimentPlan:
               "noise": args.noise, "episodes": args.episodes, "noise_draws": args.noise_draws,
               "aggregate": args.aggregate, "quantile": args.quantile,
               "noise_free_episode": args.noise_free_episode, "map_spread": args.map_spread,
-              "map_branch": args.map_branch, "plain_episodes": args.plain_episodes,
+              "map_branch": args.map_branch, "branch_sides": args.branch_sides,
+              "plain_episodes": args.plain_episodes,
               "robust_from": args.robust_from,
               "robust_delay": args.robust_delay, "noise_free_branch": args.noise_free_branch,
               "diversity": args.diversity, "diversity_k": args.diversity_k,
@@ -346,7 +352,8 @@ def cmd_train(args) -> int:
                      noise_draws=args.noise_draws,
                      aggregate=args.aggregate,
                      quantile=args.quantile, noise_free_episode=args.noise_free_episode, map_spread=args.map_spread,
-                     map_branch=args.map_branch, plain_episodes=args.plain_episodes,
+                     map_branch=args.map_branch, branch_sides=args.branch_sides,
+                     plain_episodes=args.plain_episodes,
                      diversity=args.diversity, diversity_k=args.diversity_k, restart_every=args.restart_every)
     if args.resume and (args.out / "config.json").exists() and not args.config and not args.preset:
         from .storage.files import read_versioned_json

@@ -24,7 +24,8 @@ PLAN_FILE = "experiment.json"
 
 #: the plan's fields that are EvolutionConfig fields of the same name, passed to every run as they are
 EVOLUTION_FIELDS = ("init", "evaluate_modules", "cppn_activation", "decision", "symmetry", "episodes", "noise_draws",
-                    "aggregate", "quantile", "noise_free_episode", "map_spread", "map_branch", "plain_episodes",
+                    "aggregate", "quantile", "noise_free_episode", "map_spread", "map_branch", "branch_sides",
+                    "plain_episodes",
                     "robust_from", "robust_delay", "noise_free_branch", "diversity", "diversity_k", "restart_every",
                     "map", "after_solved")
 
@@ -53,6 +54,7 @@ class ExperimentPlan:
     noise_free_episode: bool = False
     map_spread: float = 0.0  # keyed episodes on plus variants, arm lengths x [1 - S, 1 + S] (see EvolutionConfig)
     map_branch: float = 0.0  # and side arms leaving the top arm [0, B] cm above the crossing (see EvolutionConfig)
+    branch_sides: str = "both"  # or "one": a side at the crossing, the other above it (see EvolutionConfig)
     plain_episodes: int = 0  # of which the first N per generation on the map itself (see EvolutionConfig)
     #: "start" or "first_solution": robust evaluation from the first generation, or only after the first solution
     robust_from: str = "start"

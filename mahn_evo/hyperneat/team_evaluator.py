@@ -74,6 +74,9 @@ class EvaluationSettings:
     #: has its left and right arms leaving the top arm at offsets drawn from [0, B] above the crossing (see
     #: mahn_envs.maps.variants), so a turn cannot rest on both sides of the crossing opening at once
     map_branch: float = 0.0
+    #: with map_branch: "both" (each side arm's offset from [0, B]) or "one" (a random side at the crossing, the
+    #: other from [corridor width, B]: the openings never overlap; mahn_envs.maps.variants.spread_variant)
+    branch_sides: str = "both"
     #: with map_spread or map_branch: the first N keyed episodes of each generation are played on `map` itself, the
     #: others on variants, so every generation keeps noisy episodes on the map the team was solved on (all-variant
     #: hardening traded plus for the test map: docs/results/experiment_harden_branch/)
@@ -99,7 +102,10 @@ class EvaluationSettings:
         if isinstance(self.map_spread, bool) or not isinstance(self.map_spread, (int, float)) \
                 or not 0.0 <= self.map_spread < 1.0:
             raise ValueError(f"map_spread must be a number in [0, 1), got {self.map_spread!r}")
-        check_branch(self.map_branch, self.map_spread)
+        check_branch(self.map_branch, self.map_spread, self.branch_sides)
+        if self.branch_sides != "both" and self.map_branch == 0.0:
+            raise ValueError(f"branch_sides {self.branch_sides!r} says how map_branch draws its offsets: it needs "
+                             "map_branch > 0")
         if self.map_branch > 0.0 and self.map != "plus":
             raise ValueError(f"map_branch draws variants of the plus map (its side arms' offsets), so it needs map "
                              f"'plus', got map {self.map!r}")
@@ -227,7 +233,7 @@ class TeamEvaluator:
         # key % episodes: the episode's place in its generation (keys run generation * K ... + K - 1, or 0 ... K - 1)
         if not s.on_variants or key % s.episodes < s.plain_episodes:
             return self._sim(n)
-        return BatchSim(spread_variant(s.seed, key, s.map_spread, s.map_branch), n, s.task)
+        return BatchSim(spread_variant(s.seed, key, s.map_spread, s.map_branch, s.branch_sides), n, s.task)
 
     def _clean_sim(self, n: int) -> BatchSim:
         if n not in self._clean_sims:

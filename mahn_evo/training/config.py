@@ -39,7 +39,7 @@ STOPPING_RULES = ("generations", "stop_when_solved", "after_solved")
 #: settings that only score the generations of a robust phase (robust_from "first_solution"): a run may gain or
 #: change its robust phase when resumed before that phase has started (`continues_before_robust_phase`)
 ROBUST_PHASE_FIELDS = ("task", "episodes", "noise_draws", "aggregate", "quantile", "noise_free_episode",
-                       "map_spread", "map_branch", "plain_episodes", "robust_from", "robust_delay")
+                       "map_spread", "map_branch", "branch_sides", "plain_episodes", "robust_from", "robust_delay")
 
 
 def robust_phase_start(robust_from: str, robust_delay: int, first_solved: int | None) -> int | None:
@@ -56,8 +56,8 @@ class EvolutionConfig:
 
     The fields that say how genomes are scored (mode, map, task, episodes, seed, evaluate_modules, cppn_activation,
     decision, symmetry, noise_draws, aggregate, quantile, noise_free_episode, map_spread, map_branch,
-    plain_episodes) are those of the evaluator's `EvaluationSettings`, which checks them; `evaluation` builds that
-    record.  They stay flat here, as config.json has always held them.
+    branch_sides, plain_episodes) are those of the evaluator's `EvaluationSettings`, which checks them;
+    `evaluation` builds that record.  They stay flat here, as config.json has always held them.
     """
 
     mode: str = "situational"
@@ -92,6 +92,8 @@ class EvolutionConfig:
     #: 0 (the paper): side arms at the crossing; B > 0 cm (map "plus"): the keyed episodes' plus variants also have
     #: their side arms leaving the top arm at offsets drawn from [0, B] (see EvaluationSettings.map_branch)
     map_branch: float = 0.0
+    #: with map_branch: "both" or "one" (see EvaluationSettings.branch_sides)
+    branch_sides: str = "both"
     #: with map_spread or map_branch: the first N keyed episodes of a generation on `map` itself, the others on
     #: variants (see EvaluationSettings.plain_episodes)
     plain_episodes: int = 0
@@ -206,7 +208,7 @@ class EvolutionConfig:
         map_branch B, plain_episodes 1 and per-generation draws."""
         clean = replace(self.evaluation, task=self.task.without_noise(), episodes=1, noise_draws="fixed",
                         aggregate="mean", quantile=0.25, noise_free_episode=False, map_spread=0.0,
-                        map_branch=0.0, plain_episodes=0)
+                        map_branch=0.0, branch_sides="both", plain_episodes=0)
         if self.noise_free_branch == 0.0:
             return clean
         return replace(clean, episodes=2, noise_draws="per_generation", map_branch=self.noise_free_branch,

@@ -222,3 +222,37 @@ def test_a_solved_noise_free_branch_run_resumed_into_a_robust_phase_is_the_fresh
     assert [r[:-1] for r in later.rows] == [r[:-1] for r in fresh.rows]
     assert later.rows[start - 1][1] - later.rows[start - 2][1] == 24 * 2  # plus and the branch variant
     assert later.rows[start][1] - later.rows[start - 1][1] == 24 * 2  # then the noisy episodes (as counted)
+
+
+def test_one_sided_branches_never_open_both_sides_at_once():
+    """branch_sides "one": a random side at the crossing, the other's opening wholly above it (the test map's kind
+    of crossing), where "both" leaves overlapping openings in most variants."""
+    width = HIGH - LOW
+    sides, overlapping = set(), 0
+    for key in range(60):
+        left, right = (y - LOW for y in _side_openings(spread_variant(5, key, 0.0, 49.0, "one")))
+        assert min(left, right) == pytest.approx(0.0, abs=1e-9) and width - 1e-9 <= max(left, right) <= 49.0 + 1e-9
+        sides.add("left" if left > right else "right")
+        both = [y - LOW for y in _side_openings(spread_variant(5, key, 0.0, 40.0))]
+        overlapping += abs(both[0] - both[1]) < width
+    assert sides == {"left", "right"} and overlapping >= 45  # "both": about 93 % of variants overlap
+    # "both" draws what it always drew (the published branch runs reproduce)
+    assert spread_variant(2, 3, 0.0, 30.0).name == spread_variant(2, 3, 0.0, 30.0, "both").name == \
+        "plus_arms_78.74_78.74_78.74_branch_7.47_27.33"
+    with pytest.raises(ValueError, match="must exceed the corridor width"):
+        spread_variant(0, 0, 0.0, 25.0, "one")
+    with pytest.raises(ValueError, match="branch_sides must be one of"):
+        EvaluationSettings(map_branch=40.0, branch_sides="left")
+    with pytest.raises(ValueError, match="needs map_branch > 0"):
+        EvaluationSettings(branch_sides="one")
+    ev = TeamEvaluator(EvaluationSettings(episodes=2, map_branch=49.0, branch_sides="one", plain_episodes=1,
+                                          noise_draws="per_generation", seed=5))
+    assert ev._keyed_sim(2 * 7 + 1, 2).world.name == spread_variant(5, 15, 0.0, 49.0, "one").name
+    args = build_parser().parse_args(["experiment", "--preset", "hardened", "--map-branch", "49", "--branch-sides",
+                                      "one", "--plain-episodes", "1", "--after-solved", "150", "--out", "x"])
+    plan = experiment_plan(args)
+    cfg = plan.train_config("situational", 16)
+    assert (cfg.branch_sides, cfg.evaluation.branch_sides, cfg.noise_free_evaluation.branch_sides) == \
+        ("one", "one", "both")
+    assert "one side arm at the crossing and the other leaving the top arm [29.53, 49] cm above it" in _robust_text(
+        plan.to_dict())
