@@ -62,9 +62,10 @@ def _fidelity_and_robustness_options(p: argparse.ArgumentParser) -> None:
                         "arms leaving the top arm at offsets drawn from [0, B] cm above the crossing (default 0: at "
                         "the crossing), so a turn cannot rest on both sides of the crossing opening at once")
     p.add_argument("--branch-sides", choices=BRANCH_SIDES,
-                   help="with --map-branch: both (default: each side arm's offset from [0, B]) or one (a random "
+                   help="with --map-branch: both (default: each side arm's offset from [0, B]), one (a random "
                         "side at the crossing, the other from [corridor width, B], so the two openings never "
-                        "overlap and a turn cannot wait for both)")
+                        "overlap and a turn cannot wait for both) or one_short (as one, the raised arm shorter by "
+                        "its offset, so its post stays as far from home along the corridors as on plus)")
     p.add_argument("--plain-episodes", type=int, metavar="N",
                    help="with --map-spread or --map-branch: play the first N keyed (noisy) episodes of each "
                         "generation on the map itself and only the others on variants (default 0)")

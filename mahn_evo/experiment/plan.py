@@ -54,7 +54,7 @@ class ExperimentPlan:
     noise_free_episode: bool = False
     map_spread: float = 0.0  # keyed episodes on plus variants, arm lengths x [1 - S, 1 + S] (see EvolutionConfig)
     map_branch: float = 0.0  # and side arms leaving the top arm [0, B] cm above the crossing (see EvolutionConfig)
-    branch_sides: str = "both"  # or "one": a side at the crossing, the other above it (see EvolutionConfig)
+    branch_sides: str = "both"  # or "one" / "one_short": a side at the crossing, the other above it (EvolutionConfig)
     plain_episodes: int = 0  # of which the first N per generation on the map itself (see EvolutionConfig)
     #: "start" or "first_solution": robust evaluation from the first generation, or only after the first solution
     robust_from: str = "start"

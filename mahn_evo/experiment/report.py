@@ -88,9 +88,11 @@ def _robust_text(plan: dict[str, Any]) -> str:
     spread = float(plan.get("map_spread", 0.0))
     branch = float(plan.get("map_branch", 0.0))
     variant = [f"arm lengths x [{1 - spread:g}, {1 + spread:g}] (`--map-spread {spread:g}`)"] if spread else []
-    if branch and plan.get("branch_sides", "both") == "one":
-        variant += [f"one side arm at the crossing and the other leaving the top arm [29.53, {branch:g}] cm above it "
-                    f"(`--map-branch {branch:g} --branch-sides one`)"]
+    sides = plan.get("branch_sides", "both")
+    if branch and sides in ("one", "one_short"):
+        shorter = ", shorter by that offset" if sides == "one_short" else ""
+        variant += [f"one side arm at the crossing and the other leaving the top arm [29.53, {branch:g}] cm above it"
+                    f"{shorter} (`--map-branch {branch:g} --branch-sides {sides}`)"]
     elif branch:
         variant += [f"side arms leaving the top arm [0, {branch:g}] cm above the crossing (`--map-branch {branch:g}`)"]
     plain = int(plan.get("plain_episodes", 0))

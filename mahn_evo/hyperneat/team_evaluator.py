@@ -74,8 +74,9 @@ class EvaluationSettings:
     #: has its left and right arms leaving the top arm at offsets drawn from [0, B] above the crossing (see
     #: mahn_envs.maps.variants), so a turn cannot rest on both sides of the crossing opening at once
     map_branch: float = 0.0
-    #: with map_branch: "both" (each side arm's offset from [0, B]) or "one" (a random side at the crossing, the
-    #: other from [corridor width, B]: the openings never overlap; mahn_envs.maps.variants.spread_variant)
+    #: with map_branch: "both" (each side arm's offset from [0, B]), "one" (a random side at the crossing, the
+    #: other from [corridor width, B]: the openings never overlap) or "one_short" (as "one", the raised arm shorter
+    #: by its offset, so its post can still be reached by the signal; mahn_envs.maps.variants.spread_variant)
     branch_sides: str = "both"
     #: with map_spread or map_branch: the first N keyed episodes of each generation are played on `map` itself, the
     #: others on variants, so every generation keeps noisy episodes on the map the team was solved on (all-variant

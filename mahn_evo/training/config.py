@@ -92,7 +92,7 @@ class EvolutionConfig:
     #: 0 (the paper): side arms at the crossing; B > 0 cm (map "plus"): the keyed episodes' plus variants also have
     #: their side arms leaving the top arm at offsets drawn from [0, B] (see EvaluationSettings.map_branch)
     map_branch: float = 0.0
-    #: with map_branch: "both" or "one" (see EvaluationSettings.branch_sides)
+    #: with map_branch: "both", "one" or "one_short" (see EvaluationSettings.branch_sides)
     branch_sides: str = "both"
     #: with map_spread or map_branch: the first N keyed episodes of a generation on `map` itself, the others on
     #: variants (see EvaluationSettings.plain_episodes)

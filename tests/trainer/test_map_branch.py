@@ -256,3 +256,24 @@ def test_one_sided_branches_never_open_both_sides_at_once():
         ("one", "one", "both")
     assert "one side arm at the crossing and the other leaving the top arm [29.53, 49] cm above it" in _robust_text(
         plan.to_dict())
+
+
+def test_one_short_branches_keep_each_post_as_far_from_home_as_on_plus():
+    """branch_sides "one_short": the draws of "one" (same side, same offset), with the raised arm shorter by its
+    offset, so its post is as far from the junction along the corridors as on plus and the far robot can still
+    reach it by the signal; the arm at the crossing and the top arm keep their lengths."""
+    plus_pois = load_map("plus").pois
+    centre = (LOW + HIGH) / 2
+    for key in range(20):
+        one = spread_variant(5, key, 0.0, 49.0, "one")
+        short = spread_variant(5, key, 0.0, 49.0, "one_short")
+        assert _side_openings(one) == _side_openings(short)
+        corridor = [abs(x - centre) + abs(y - centre) for x, y in short.pois]
+        plain = [abs(x - centre) + abs(y - centre) for x, y in plus_pois]
+        assert corridor == pytest.approx(plain, abs=1e-9)
+        assert np.array_equal(short.pois[1], one.pois[1])  # the top arm is untouched
+    with pytest.raises(ValueError, match="must exceed the corridor width"):
+        spread_variant(0, 0, 0.0, 25.0, "one_short")
+    plan = {"map_branch": 49.0, "branch_sides": "one_short", "noise": "generalization", "episodes": 3}
+    assert "above it, shorter by that offset (`--map-branch 49 --branch-sides one_short`)" in _robust_text(
+        {**experiment_plan(build_parser().parse_args(["experiment", "--out", "x"])).to_dict(), **plan})
