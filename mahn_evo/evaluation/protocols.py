@@ -41,6 +41,8 @@ class SequentialSettings:
 class RobotRecord:
     agent: str
     left_tick: int | None = None
+    called_tick: int | None = None  # the tick its come-home signal was given (None: never called)
+    call_end_tick: int | None = None  # the tick it reached home, or the protocol stopped waiting
     post: int | None = None  # POI index it stopped at
     reached_post: bool = False
     returned_home: bool = False
@@ -145,11 +147,13 @@ def sequential_episode(policy, map: str = "plus", params: TaskParams | None = No
     for k in order:
         rec, agent = records[k], agents[k]
         env.call_home(agent)
+        rec.called_tick = len(run.history)
         for _ in range(s.return_ticks):
             run.tick()
             if manhattan(run.history[-1][k], home) <= HOME_REACHED:
                 rec.returned_home = True
                 break
+        rec.call_end_tick = len(run.history)
         env.clear_signal(agent)
         if not rec.returned_home:
             continue

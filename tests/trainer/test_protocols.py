@@ -23,6 +23,14 @@ def test_scripted_team_passes_the_sequential_protocol(map_name):
     # each robot was at home at some point after the patrol phase
     for k in range(3):
         assert np.abs(res.trajectory[:, k, :2] - home).sum(axis=1).min() <= 20
+    # robots are called one at a time, in the order they left, each after the previous one's call ended; a call
+    # ends on the tick the robot is home
+    calls = sorted((r.called_tick, r.call_end_tick, k) for k, r in enumerate(res.robots))
+    assert [k for _, _, k in calls] == sorted(range(3), key=lambda k: (res.robots[k].left_tick, k))
+    for (start, end, k), nxt in zip(calls, calls[1:] + [None]):
+        assert start < end and (nxt is None or end < nxt[0])
+        assert np.abs(res.trajectory[end - 1, k, :2] - home).sum() <= 20
+        assert np.abs(res.trajectory[end - 2, k, :2] - home).sum() > 20
 
 
 class AlwaysForward:
@@ -36,6 +44,10 @@ class AlwaysForward:
 def test_a_team_that_never_patrols_fails():
     res = sequential_episode(AlwaysForward(), settings=SequentialSettings(return_ticks=300, out_ticks=300))
     assert not res.success and res.stages_completed < 9
+    # a robot that never comes home is waited for return_ticks, and its call's end is recorded
+    for r in res.robots:
+        if not r.returned_home:
+            assert r.called_tick is not None and r.call_end_tick == r.called_tick + 300
     out = sequential(AlwaysForward(), episodes=2, settings=SequentialSettings(return_ticks=200, out_ticks=200))
     assert out["solved"] == [False, False] and len(out["fitness"]) == 2
     # the text `mahn-evo eval --protocol sequential` prints counts stages out of 9 and says what a stage is

@@ -3,7 +3,8 @@ stage it misses, on `plus` and `asymmetric_plus`, in blocks of 10 episodes from 
 
 Why: the robustness target counts teams that succeed in at least 8 of 10 such episodes on both maps.  Which stage
 fails says what the teams have not learnt; blocks from other seeds say how much a 10-episode count moves for the
-same team.
+same team.  A robot that misses coming home is counted as standing when it moved less than STAND_CM over the last
+STAND_TICKS ticks of its call (a deadlock, see README), as wandering otherwise.
 
 Usage: python docs/results/transfer_failures/stages.py OUT.json CHAMPION.json ... [--blocks 3] [--episodes 10]
 Block k uses episode seeds 1000 k .. 1000 k + episodes - 1.
@@ -15,12 +16,16 @@ import collections
 import json
 from pathlib import Path
 
+import numpy as np
+
 from mahn_envs.policies.controller_policy import ControllerPolicy
-from mahn_evo.evaluation.protocols import sequential
+from mahn_evo.evaluation.protocols import SequentialResult, sequential_episode
 from mahn_evo.evaluation.task_setup import task_params
 from mahn_evo.training.champion import Champion
 
 MAPS = ("plus", "asymmetric_plus")
+STAND_TICKS = 300
+STAND_CM = 1.0
 
 
 def first_missed(robot: dict) -> str | None:
@@ -31,6 +36,15 @@ def first_missed(robot: dict) -> str | None:
     return None
 
 
+def standing(result: SequentialResult, k: int) -> bool:
+    """Whether robot k, called and not home, stayed within STAND_CM of where it ended its call for the last
+    STAND_TICKS ticks of the call."""
+    rec = result.robots[k]
+    assert result.trajectory is not None and rec.call_end_tick is not None
+    window = result.trajectory[max(0, rec.call_end_tick - STAND_TICKS):rec.call_end_tick, k, :2]
+    return bool(np.hypot(*(window - window[-1]).T).max() < STAND_CM)
+
+
 def measure(path: Path, blocks: int, episodes: int) -> dict:
     champ = Champion.load(path)
     agents = [f"robot_{k}" for k in range(champ.controllers.n_robots)]
@@ -38,19 +52,22 @@ def measure(path: Path, blocks: int, episodes: int) -> dict:
     params = task_params("generalization")
     out: dict = {"champion": str(path), "generation": champ.generation, "maps": {}}
     for m in MAPS:
-        counts, misses = [], collections.Counter()
+        counts, misses, stand = [], collections.Counter(), 0
         for k in range(blocks):
-            res = sequential(policy, map=m, params=params, episodes=episodes, seed=1000 * k)
-            counts.append(int(sum(res["solved"])))
-            for ep in res["episodes"]:
-                for r in ep["robots"]:
+            results = [sequential_episode(policy, m, params, 1000 * k + e, record=True) for e in range(episodes)]
+            counts.append(sum(r.success for r in results))
+            for res in results:
+                for i, r in enumerate(res.to_dict()["robots"]):
                     stage = first_missed(r)
                     if stage:
                         misses[f"{r['agent']}:{stage}"] += 1
+                    if stage == "home" and standing(res, i):
+                        stand += 1
+        home = sum(v for key, v in misses.items() if key.endswith(":home"))
         out["maps"][m] = {"successes_per_block": counts, "episodes_per_block": episodes,
-                          "first_missed_stage": dict(sorted(misses.items()))}
-        print(f"{path}: {m}: successes {counts} of {episodes} each; first missed stage {dict(sorted(misses.items()))}",
-              flush=True)
+                          "first_missed_stage": dict(sorted(misses.items())), "home_misses_standing": stand}
+        print(f"{path}: {m}: successes {counts} of {episodes} each; first missed stage {dict(sorted(misses.items()))}; "
+              f"{stand} of {home} home misses standing", flush=True)
     return out
 
 
