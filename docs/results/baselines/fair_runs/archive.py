@@ -17,7 +17,6 @@ from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
 FILES = ("log.csv", "summary.json", "config.json", "best_controllers.json")
-BUDGET_TEAMS = 499_900  # 5000 generations of 100 teams, less at most one population that would overshoot
 
 
 def row(name: str, summary: dict, config: dict, commit: str) -> str:
@@ -49,8 +48,11 @@ def main() -> None:
             sys.exit(f"{run}: not a finished run (missing {', '.join(missing)})")
         summary = json.loads((run / "summary.json").read_text())
         config = json.loads((run / "config.json").read_text())
-        if summary["evaluations"] < BUDGET_TEAMS:
-            sys.exit(f"{run}: {summary['evaluations']} of {BUDGET_TEAMS} teams evaluated: not finished, not kept")
+        budget = int(config["generations"]) * int(config["popsize"])
+        searches = summary.get("searches") or [{"popsize": config["popsize"]}]
+        if summary["evaluations"] + int(searches[-1]["popsize"]) <= budget:  # the run's own rule for one more
+            sys.exit(f"{run}: {summary['evaluations']} of {budget} teams evaluated and room for another "
+                     f"generation: not finished, not kept")
         dest = HERE / run.name
         dest.mkdir(exist_ok=True)
         for f in FILES:
