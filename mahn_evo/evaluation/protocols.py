@@ -43,6 +43,9 @@ class RobotRecord:
     left_tick: int | None = None
     called_tick: int | None = None  # the tick its come-home signal was given (None: never called)
     call_end_tick: int | None = None  # the tick it reached home, or the protocol stopped waiting
+    #: called, not home, and standing still when the protocol stopped waiting: most such robots are deadlocked
+    #: between their network and the reflex (docs/results/transfer_failures/)
+    stood_when_called: bool = False
     post: int | None = None  # POI index it stopped at
     reached_post: bool = False
     returned_home: bool = False
@@ -154,6 +157,7 @@ def sequential_episode(policy, map: str = "plus", params: TaskParams | None = No
                 rec.returned_home = True
                 break
         rec.call_end_tick = len(run.history)
+        rec.stood_when_called = not rec.returned_home and run.stopped(k)
         env.clear_signal(agent)
         if not rec.returned_home:
             continue
@@ -187,8 +191,10 @@ def sequential_summary(result: dict[str, Any], map: str) -> str:
     lines = [f"sequential protocol on {map}:"]
     for e, ep in enumerate(result["episodes"]):
         possible = len(SEQUENTIAL_STAGES) * len(ep["robots"])
+        stood = [r["agent"] for r in ep["robots"] if r.get("stood_when_called")]
         lines.append(f"  episode {e}: {'success' if ep['success'] else 'fail'}, "
-                     f"{ep['stages_completed']}/{possible} stages")
+                     f"{ep['stages_completed']}/{possible} stages"
+                     + (f"; called and standing still away from home: {', '.join(stood)}" if stood else ""))
     lines.append(f"  stages: {len(SEQUENTIAL_STAGES)} per robot: it " + ", it ".join(SEQUENTIAL_STAGES)
                  + "; success = every stage of every robot")
     return "\n".join(lines)

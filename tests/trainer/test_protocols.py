@@ -19,6 +19,7 @@ def test_scripted_team_passes_the_sequential_protocol(map_name):
     assert res.success and res.stages_completed == 9
     assert sorted(r.post for r in res.robots) == [0, 1, 2]
     assert [r.left_tick is not None for r in res.robots] == [True] * 3
+    assert not any(r.stood_when_called for r in res.robots)
     home = load_map(map_name).home
     # each robot was at home at some point after the patrol phase
     for k in range(3):
@@ -48,6 +49,8 @@ def test_a_team_that_never_patrols_fails():
     for r in res.robots:
         if not r.returned_home:
             assert r.called_tick is not None and r.call_end_tick == r.called_tick + 300
+    # driving forward, every robot ends pressed against a wall by the reflex: called, it stands still away from home
+    assert [r.stood_when_called for r in res.robots] == [not r.returned_home for r in res.robots] == [True] * 3
     out = sequential(AlwaysForward(), episodes=2, settings=SequentialSettings(return_ticks=200, out_ticks=200))
     assert out["solved"] == [False, False] and len(out["fitness"]) == 2
     # the text `mahn-evo eval --protocol sequential` prints counts stages out of 9 and says what a stage is
@@ -55,6 +58,7 @@ def test_a_team_that_never_patrols_fails():
     for e, ep in enumerate(out["episodes"]):
         assert f"episode {e}: fail, {ep['stages_completed']}/9 stages" in text
     assert "3 per robot" in text and "came home when called" in text and "went back out" in text
+    assert "called and standing still away from home: robot_0, robot_1, robot_2" in text
 
 
 def test_situational_controller_restarts_patrol_brain_when_signal_cleared():
