@@ -5,6 +5,7 @@ import argparse
 import json
 import sys
 from collections.abc import Sequence
+from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -87,6 +88,11 @@ def _fidelity_and_robustness_options(p: argparse.ArgumentParser) -> None:
                         "the paper); the task's fitness still picks champions and decides solved")
     p.add_argument("--diversity-k", type=int, metavar="K",
                    help="nearest teams the diversity bonus averages over (default 15)")
+    p.add_argument("--reflex-arc", action="store_true", default=None,
+                   help="beyond the paper: the reflex's side branches (a wall close left or right of a robot asked "
+                        "to go forward) turn away and drive at speed instead of keeping the robot's velocity, so a "
+                        "standing robot cannot deadlock against a wall (default: the original's reflex; the team's "
+                        "champion files record it and every evaluation and deploy drives it so)")
     p.add_argument("--restart-every", type=int, metavar="G",
                    help="until the first solution, start from a fresh population every G generations (default 0: "
                         "never, as the paper); the generation count and the champion carry on")
@@ -267,7 +273,8 @@ def experiment_plan(args: argparse.Namespace) -> ExperimentPlan:
     return ExperimentPlan(modes=tuple(args.modes), runs=args.runs, seed=args.seed, generations=args.generations,
                           population=args.pop, map=args.map, after_solved=args.after_solved,
                           **{k: d.to_dict()[k] if v is None else v for k, v in _analysis_options(args).items()},
-                          max_cycles=args.max_cycles, signal_tick=args.signal_tick, neat=neat, **fields)
+                          max_cycles=args.max_cycles, signal_tick=args.signal_tick, neat=neat,
+                          reflex_arc=base.task.reflex_arc if args.reflex_arc is None else args.reflex_arc, **fields)
 
 
 def _analysis_options(args) -> dict[str, Any]:
@@ -366,6 +373,8 @@ def cmd_train(args) -> int:
     # after the noise: robust_from "first_solution" needs a noisy task
     config = config.with_overrides(robust_from=args.robust_from, robust_delay=args.robust_delay,
                                    noise_free_branch=args.noise_free_branch)
+    if args.reflex_arc is not None:
+        config = replace(config, task=replace(config.task, reflex_arc=args.reflex_arc))
     from .storage.folder_lock import folder_lock
 
     with folder_lock(args.out, "run folder"):
@@ -424,6 +433,7 @@ def cmd_eval(args) -> int:
         from .training.champion import Champion
 
         champ = Champion.load(args.champion)
+        params = champ.task(params)
         policy = ControllerPolicy(champ.controllers, [f"robot_{k}" for k in range(champ.controllers.n_robots)])
         result = sequential(policy, map=args.map, params=params, episodes=args.episodes, seed=args.seed)
         if args.video or args.plot:  # the first episode again, filmed / recorded

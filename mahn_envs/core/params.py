@@ -43,6 +43,9 @@ class TaskParams:
     start_jitter_heading: float = 0.0
     robots_see_each_other: bool = False
     reflex: bool = True
+    #: beyond the original: the reflex's side branches drive at speed (the robot arcs away from the wall) instead
+    #: of keeping the velocity, so a standing robot asked to go forward beside a wall moves (core.task.steer)
+    reflex_arc: bool = False
     auto_signal: bool = True
 
     def __post_init__(self) -> None:
@@ -55,7 +58,7 @@ class TaskParams:
             if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)) \
                     or not math.isfinite(value) or value < 0:
                 raise ValueError(f"TaskParams.{name} must be a finite number >= 0, got {value!r}")
-        for name in ("robots_see_each_other", "reflex", "auto_signal"):
+        for name in ("robots_see_each_other", "reflex", "reflex_arc", "auto_signal"):
             check_flag(getattr(self, name), f"TaskParams.{name}")
         if self.effector_noise >= 100:
             raise ValueError("TaskParams.effector_noise must be below 100 (percent), or robots would reverse")
@@ -97,5 +100,5 @@ class TaskParams:
         v[T.P_SIGT] = self.signal_tick
         v[T.P_SEE] = 1.0 if self.robots_see_each_other else 0.0
         v[T.P_AUTOSIG] = 1.0 if self.auto_signal else 0.0
-        v[T.P_REFLEX] = 1.0 if self.reflex else 0.0
+        v[T.P_REFLEX] = (2.0 if self.reflex_arc else 1.0) if self.reflex else 0.0
         return v

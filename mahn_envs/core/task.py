@@ -174,7 +174,9 @@ def decide_robot(b, r, action, tick, pose, raw, params, seed, key):
                                    unit_reading(raw[b, r, 4], f_radius, f_ir),
                                    unit_reading(raw[b, r, 5], f_radius, f_ir),
                                    np.float32(params[P_FLOOR]))
-    direction, velocity = steer(action, response, pose[b, r, V], speed)
+    # reflex 2 (TaskParams.reflex_arc): a side branch drives at speed instead of keeping the velocity
+    kept = pose[b, r, V] if params[P_REFLEX] < 1.5 else speed
+    direction, velocity = steer(action, response, kept, speed)
     pose[b, r, V] = velocity
     if direction > 0:
         pose[b, r, H] += step

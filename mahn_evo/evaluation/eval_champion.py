@@ -23,7 +23,7 @@ def evaluate_champion(champion: Champion | str | Path, map: str = "plus", engine
                       ) -> dict[str, Any]:
     """Per-episode and mean team fitness and `solved`; writes a GIF of the first episode if `video`."""
     champ = champion if isinstance(champion, Champion) else Champion.load(champion)
-    params = params or TaskParams()
+    params = champ.task(params)
     if episodes < 1:
         raise ValueError(f"episodes must be >= 1, got {episodes}")
     fits: list[float] = []

@@ -42,6 +42,9 @@ def generalize(run_dir: str | Path, episodes: int = 25, map: str = "plus", param
     modes = {c.mode for c in champs}
     if len(modes) != 1:
         raise ValueError(f"solutions of one run must share a mode, found {sorted(modes)}")
+    if len({c.reflex_arc for c in champs}) != 1:
+        raise ValueError(f"solutions of one run must share a reflex variant (reflex_arc), in {str(run_dir)!r}")
+    params = champs[0].task(params)
     teams = TeamControllers.stack([c.controllers for c in champs])
     n = len(champs)
     sim = BatchSim(map, n * episodes, params)

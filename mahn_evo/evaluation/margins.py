@@ -52,7 +52,7 @@ def decision_margins(champion: Champion | str | Path, map: str = "plus", params:
     the episode's team fitness.
     """
     champ = champion if isinstance(champion, Champion) else Champion.load(champion)
-    params = params or TaskParams()
+    params = champ.task(params)
     env = task_env(map, params)
     try:
         obs, _ = env.reset(seed=seed)

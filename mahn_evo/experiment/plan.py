@@ -70,6 +70,7 @@ class ExperimentPlan:
     general_episodes: int = 25  # noisy episodes of the generalisation test
     transfer_episodes: int = 10  # noisy episodes per transfer test
     replays: int = 1  # most general solutions per mode filmed in each protocol and map (GIFs)
+    reflex_arc: bool = False  # the arcing reflex (TaskParams.reflex_arc), beyond the paper
     max_cycles: int = 1364  # shorter only for smoke tests
     signal_tick: int = 690
     neat: Mapping[str, Any] = field(default_factory=dict)  # NeatSettings overrides (e.g. from a config file)
@@ -116,7 +117,7 @@ class ExperimentPlan:
             base = EvolutionConfig.from_mapping({**base.to_dict(), "neat": {**base.neat.to_dict(), **self.neat,
                                                                          "population_size": self.population}})
         task = base.task.to_dict()
-        task.update(max_cycles=self.max_cycles, signal_tick=self.signal_tick)
+        task.update(max_cycles=self.max_cycles, signal_tick=self.signal_tick, reflex_arc=self.reflex_arc)
         return EvolutionConfig.from_mapping({**base.to_dict(), "task": task})
 
     def tasks(self, out: str | Path) -> list[tuple[str, int, Path]]:

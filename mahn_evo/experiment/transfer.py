@@ -69,12 +69,13 @@ def _policy(champ: Champion) -> ControllerPolicy:
 def transfer_tests(champ: Champion, plan: ExperimentPlan) -> dict[str, Any]:
     """Both protocols on both maps, exact (1 episode) and noisy (plan.transfer_episodes episodes), and the
     team's decision margins on the training map (a team that decides by ties will not survive noise)."""
-    noisy = task_params("generalization")
+    noisy = champ.task(task_params("generalization"))
+    exact_task = champ.task()
     out: dict[str, Any] = {}
     for m in TRANSFER_MAPS:
         exact = evaluate_champion(champ, map=m, episodes=1, seed=plan.seed)
         noise = evaluate_champion(champ, map=m, episodes=plan.transfer_episodes, params=noisy, seed=plan.seed)
-        seq = sequential(_policy(champ), map=m, episodes=1, seed=plan.seed)
+        seq = sequential(_policy(champ), map=m, params=exact_task, episodes=1, seed=plan.seed)
         seq_noise = sequential(_policy(champ), map=m, params=noisy, episodes=plan.transfer_episodes,
                                seed=plan.seed)
         out[m] = {
@@ -99,7 +100,7 @@ def replays(champ: Champion, folder: Path, stem: str, seed: int = 0) -> list[Pat
         evaluate_champion(champ, map=m, seed=seed, video=path, video_every=6, video_scale=0.6)
         written.append(path)
         frames: list = []
-        sequential_episode(_policy(champ), map=m, seed=seed, frames=frames, frame_every=12)
+        sequential_episode(_policy(champ), map=m, params=champ.task(), seed=seed, frames=frames, frame_every=12)
         path = folder / f"{stem}_{m}_sequential.gif"
         save_gif(frames, path, fps=15, scale=0.6)
         written.append(path)
@@ -114,7 +115,7 @@ def trajectories(champ: Champion, seed: int = 0) -> dict[str, tuple[np.ndarray, 
         res = sim.run_controllers(champ.controllers, record=True)
         assert res.trajectories is not None  # record=True records them
         paths[f"{m} / training"] = (res.trajectories[0], sim.params.signal_tick)
-        seq = sequential_episode(_policy(champ), map=m, seed=seed, record=True)
+        seq = sequential_episode(_policy(champ), map=m, params=champ.task(), seed=seed, record=True)
         assert seq.trajectory is not None  # record=True records it
         paths[f"{m} / sequential"] = (seq.trajectory, None)
     return paths

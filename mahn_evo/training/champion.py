@@ -6,12 +6,13 @@ inspected or evolved further.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from mahn_envs.core import TaskParams
 from mahn_envs.policies.team_controllers import _FIELDS as CONTROLLER_FIELDS
 from mahn_envs.policies.team_controllers import TeamControllers
 
@@ -32,11 +33,21 @@ class Champion:
     controllers: TeamControllers
     seed: int | None = None
     map: str = "plus"
+    #: the reflex variant the team was evolved with (TaskParams.reflex_arc); files before it have the original's
+    reflex_arc: bool = False
+
+    def task(self, params: TaskParams | None = None) -> TaskParams:
+        """`params` (default: the noise-free task) with this team's reflex variant.
+
+        Why: a team evolved with the arcing reflex meets other situations than the original's reflex gives it, so
+        every evaluation of a champion (eval, generalisation, margins, transfer tests, deploy) drives it with the
+        reflex it was evolved with."""
+        return replace(params if params is not None else TaskParams(), reflex_arc=self.reflex_arc)
 
     def to_dict(self) -> dict[str, Any]:
         return versioned(KIND, {
             "mode": self.mode, "fitness": self.fitness, "solved": self.solved, "generation": self.generation,
-            "seed": self.seed, "map": self.map, "cppn": self.genome.to_dict(),
+            "seed": self.seed, "map": self.map, "reflex_arc": self.reflex_arc, "cppn": self.genome.to_dict(),
             "controllers": self.controllers.to_dict()})
 
     def save(self, path: str | Path) -> None:
@@ -55,7 +66,7 @@ class Champion:
                         solved=_flag(data["solved"], "solved"), generation=_count(data["generation"], "generation"),
                         genome=Genome.from_dict(data["cppn"]),
                         controllers=TeamControllers.from_dict(data["controllers"]), seed=data["seed"],
-                        map=data["map"])
+                        map=data["map"], reflex_arc=_flag(data.get("reflex_arc", False), "reflex_arc"))
         except (KeyError, TypeError, ValueError, AttributeError, IndexError) as exc:
             raise ValueError(f"{where} is missing or has a malformed field: {exc}") from exc
         _check_controllers_match_cppn(champ, where)

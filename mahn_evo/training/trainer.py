@@ -246,7 +246,7 @@ class Trainer:
     def _champion(self, gen: int, genome: Genome, ev, index: int) -> Champion:
         return Champion(mode=self.config.mode, fitness=float(ev.fitness[index]), solved=bool(ev.solved[index] >= 1),
                         generation=gen, genome=genome, controllers=ev.controllers.team(index),
-                        seed=self.config.seed, map=self.config.map)
+                        seed=self.config.seed, map=self.config.map, reflex_arc=self.config.task.reflex_arc)
 
     def _record_best(self, gen: int, genomes, ev, best: int) -> None:
         if ev.fitness[best] > self.best_fitness:
