@@ -19,7 +19,7 @@ import math
 import sys
 import time
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -62,6 +62,19 @@ def load_team(path: str | Path) -> tuple[TeamControllers, dict[str, Any]]:
     return team, data
 
 
+def _champion_driving(driving: Any, data: Mapping[str, Any], path: str | Path) -> Any:
+    """`driving` (default Driving()) with the reflex variant the champion was evolved with (its `reflex_arc`,
+    false in files before it): a team meets the situations its own reflex gives it, on robots as in simulation."""
+    from mahn_envs.hardware import Driving
+
+    if driving is not None and not isinstance(driving, Driving):
+        raise TypeError(f"env_kwargs['driving'] must be a Driving record, got {type(driving).__name__}")
+    arc = data.get("reflex_arc", False)
+    if not isinstance(arc, bool):
+        raise ValueError(f"champion file {str(path)!r}: field 'reflex_arc' must be true or false, got {arc!r}")
+    return replace(driving or Driving(), reflex_arc=arc)
+
+
 def _fmt(v: float) -> str:
     return "" if v is None or (isinstance(v, float) and not math.isfinite(v)) else f"{v:.6g}"
 
@@ -102,6 +115,7 @@ def deploy(champion_path: str | Path, ports: Sequence[str] | None = None, *,
         raise ValueError("give deploy either a clock or Timing(time_scale=...) in env_kwargs, not both")
     team, data = load_team(champion_path)
     map_name = kwargs.get("map") or data.get("map", "plus")
+    kwargs["driving"] = _champion_driving(kwargs.get("driving"), data, champion_path)
     n = team.n_robots
     if emulate:
         if ports:

@@ -118,20 +118,21 @@ def encode_inputs(readings: Sequence[Sequence[float]] | np.ndarray, signal: Sequ
 
 def steer(action: int, readings: Sequence[float] | np.ndarray, velocity: float,
           speed: float = DEFAULT_MODEL.speed, floor: float = DEFAULT_MODEL.sensor_floor,
-          reflex: bool = True) -> tuple[int, float]:
+          reflex: bool = True, arc: bool = False) -> tuple[int, float]:
     """An action (0 left, 1 forward, 2 right) through the collision-avoidance reflex -> (turn, velocity).
 
     `readings` are the six un-floored sensor values the robot last saw (index 0 leftmost, compared in float32
     with `floor`), `velocity` its current forward velocity and `speed` the forward speed.  `turn` is
     TURN_LEFT (+1), NO_TURN (0) or TURN_RIGHT (-1): one turning step this tick.  The reflex keeps the velocity
-    when it turns (a driving robot arcs round the obstacle) and stops the robot when the front is blocked.
+    when it turns (a driving robot arcs round the obstacle) and stops the robot when the front is blocked; with
+    `arc` (TaskParams.reflex_arc) its side branches drive at `speed` instead, so a standing robot arcs too.
     """
     act = _check_action(action)
     q = _six(readings, "readings").astype(np.float32)
     response = T.REFLEX_CLEAR
     if reflex:
         response = T.reflex_response(q[0], q[1], q[2], q[3], q[4], q[5], np.float32(floor))
-    turn, v = T.steer(act, response, float(velocity), float(speed))
+    turn, v = T.steer(act, response, float(speed) if arc else float(velocity), float(speed))
     return int(turn), float(v)
 
 

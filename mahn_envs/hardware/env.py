@@ -170,6 +170,7 @@ class KheperaHardwareEnv(ParallelEnv):
         self.policy_coordinates = agent_policy_coordinates(self.possible_agents)
         self.drive = driving.drive(model)
         self.reflex = driving.reflex
+        self.reflex_arc = driving.reflex_arc
         speed_units = self._check_speed_units(driving.speed_unit, n)
         self.calibration = sensing.calibration
         self.sensor_floor = sensing.floor(model)
@@ -414,7 +415,8 @@ class KheperaHardwareEnv(ParallelEnv):
         # 1. actions -> reflex -> wheel commands, to every robot
         motions, commands = [], []
         for k, action in enumerate(acts):
-            m = reflex_motion(action, self._q[k], bool(self._moving[k]), self.sensor_floor, self.reflex)
+            m = reflex_motion(action, self._q[k], bool(self._moving[k]), self.sensor_floor, self.reflex,
+                              self.reflex_arc)
             self._moving[k] = m.moving
             motions.append(m)
             commands.append(P.set_speed(*self.drive.units(m, self.speed_units[k])))

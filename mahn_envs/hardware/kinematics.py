@@ -47,12 +47,14 @@ class Motion(IntEnum):
 
 
 def reflex_motion(action: int, proximity: Sequence[float], moving: bool, floor: float = 0.25,
-                  enabled: bool = True) -> Motion:
+                  enabled: bool = True, arc: bool = False) -> Motion:
     """The simulator's decision (action through the collision-avoidance reflex, ``core.api.steer``) as a
     wheel motion, given the six un-floored [0, 1] sensor values (index 0 leftmost, 1 = free) and whether the
     robot was driving forward.  The reflex keeps the velocity when it turns, so a driving robot arcs round the
-    obstacle and a standing one turns in place; ``result.moving`` is the robot's new state."""
-    turn, velocity = steer(action, proximity, 1.0 if moving else 0.0, speed=1.0, floor=floor, reflex=enabled)
+    obstacle and a standing one turns in place (with `arc`, the arcing reflex: it arcs too); ``result.moving`` is
+    the robot's new state."""
+    turn, velocity = steer(action, proximity, 1.0 if moving else 0.0, speed=1.0, floor=floor, reflex=enabled,
+                           arc=arc)
     return Motion.of(turn, velocity)
 
 

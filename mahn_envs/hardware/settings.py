@@ -73,6 +73,9 @@ class Driving:
     speed_unit: str | float | tuple[float, ...] = "auto"
     #: The simulator's collision-avoidance reflex between the action and the wheels (on, as in simulation).
     reflex: bool = True
+    #: The arcing reflex (TaskParams.reflex_arc): its side branches drive forward.  Teams evolved with it need it;
+    #: `mahn-evo deploy` sets it from the champion file.
+    reflex_arc: bool = False
 
     def __post_init__(self) -> None:
         for name in ("forward_speed", "turn_rate"):
@@ -101,6 +104,7 @@ class Driving:
                 _check_positive("Driving", "speed_unit", u)
             object.__setattr__(self, "speed_unit", tuple(float(u) for u in units))
         _check_flag("Driving", "reflex", self.reflex)
+        _check_flag("Driving", "reflex_arc", self.reflex_arc)
 
     def drive(self, model: KheperaModel) -> Drive:
         """The wheel-speed conversion these settings give on a robot of `model` (None speeds are the model's)."""

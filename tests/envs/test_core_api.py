@@ -103,9 +103,10 @@ def test_encode_inputs_caps_floors_and_checks_shapes():
         encode_inputs([[1.0] * 6], [0.0, 1.0])
 
 
-def _decide(action: int, raw: np.ndarray, velocity: float, reflex: bool) -> tuple[float, float, bool]:
+def _decide(action: int, raw: np.ndarray, velocity: float, reflex: bool,
+            arc: bool = False) -> tuple[float, float, bool]:
     """The core's decide_robot on one robot: (heading change, velocity, corrected)."""
-    params = TaskParams(reflex=reflex).vector(DEFAULT_MODEL)
+    params = TaskParams(reflex=reflex, reflex_arc=arc).vector(DEFAULT_MODEL)
     pose = np.zeros((1, 1, 4))
     pose[0, 0, 3] = velocity
     corrected = T.decide_robot(0, 0, action, 1, pose, raw.reshape(1, 1, 6).astype(np.float64), params, 0,
@@ -113,8 +114,8 @@ def _decide(action: int, raw: np.ndarray, velocity: float, reflex: bool) -> tupl
     return pose[0, 0, 2], pose[0, 0, 3], corrected
 
 
-@pytest.mark.parametrize("reflex", [True, False])
-def test_steer_matches_decide_robot_on_a_grid_of_readings(reflex):
+@pytest.mark.parametrize("reflex, arc", [(True, False), (False, False), (True, True)])
+def test_steer_matches_decide_robot_on_a_grid_of_readings(reflex, arc):
     rng = np.random.default_rng(11)
     threshold = DEFAULT_MODEL.radius + DEFAULT_MODEL.sensor_floor * DEFAULT_MODEL.ir_range
     step = DEFAULT_MODEL.turn_step
@@ -125,12 +126,15 @@ def test_steer_matches_decide_robot_on_a_grid_of_readings(reflex):
         raw = np.clip(raw, 6.5, 16.66)
         action = int(rng.integers(0, 3))
         velocity = float(rng.choice([0.0, DEFAULT_MODEL.speed]))
-        dh, v, corrected = _decide(action, raw, velocity, reflex)
-        turn, v_api = steer(action, readings_from_ranges(raw), velocity, reflex=reflex)
+        dh, v, corrected = _decide(action, raw, velocity, reflex, arc)
+        turn, v_api = steer(action, readings_from_ranges(raw), velocity, reflex=reflex, arc=arc)
         assert (turn * step, v_api) == (dh, v), (action, raw.tolist(), velocity)
         assert corrected == (action == T.FORWARD and turn == NO_TURN and v_api == 0.0)
         seen.add((action, turn, v_api > 0))
-    if reflex:  # every reflex branch, driving and standing: left, front, right blocked
+    if arc:  # the arcing reflex: a side branch drives whether the robot stood or drove
+        assert {(1, TURN_RIGHT, True), (1, NO_TURN, False), (1, TURN_LEFT, True), (1, NO_TURN, True)} <= seen
+        assert not {(1, TURN_RIGHT, False), (1, TURN_LEFT, False)} & seen
+    elif reflex:  # every reflex branch, driving and standing: left, front, right blocked
         assert {(1, TURN_RIGHT, True), (1, TURN_RIGHT, False), (1, NO_TURN, False), (1, TURN_LEFT, True),
                 (1, TURN_LEFT, False), (1, NO_TURN, True)} <= seen
     with pytest.raises(ValueError, match="action"):
