@@ -16,7 +16,7 @@ from .cppn import CPPN_ACTIVATIONS
 from .evaluation.task_setup import NOISE_PRESETS
 from .hyperneat.substrate import MODES, SYMMETRIES
 from .hyperneat.team_evaluator import AGGREGATES, NOISE_DRAWS
-from .training.config import INITS, ROBUST_FROM, EvolutionConfig, load_config_file
+from .training.config import INITS, REFLEX_ARC_FROM, ROBUST_FROM, EvolutionConfig, load_config_file
 from .training.presets import PRESETS, apply_preset
 
 if TYPE_CHECKING:  # the experiment package loads only when an experiment runs
@@ -93,6 +93,10 @@ def _fidelity_and_robustness_options(p: argparse.ArgumentParser) -> None:
                         "to go forward) turn away and drive at speed instead of keeping the robot's velocity, so a "
                         "standing robot cannot deadlock against a wall (default: the original's reflex; the team's "
                         "champion files record it and every evaluation and deploy drives it so)")
+    p.add_argument("--reflex-arc-from", choices=REFLEX_ARC_FROM,
+                   help="with --reflex-arc: start (default: every generation) or robust_phase (with --robust-from "
+                        "first_solution: the original's reflex until the robust phase, so the search is the "
+                        "faithful run's and only the hardening uses the arcing reflex)")
     p.add_argument("--restart-every", type=int, metavar="G",
                    help="until the first solution, start from a fresh population every G generations (default 0: "
                         "never, as the paper); the generation count and the champion carry on")
@@ -274,7 +278,8 @@ def experiment_plan(args: argparse.Namespace) -> ExperimentPlan:
                           population=args.pop, map=args.map, after_solved=args.after_solved,
                           **{k: d.to_dict()[k] if v is None else v for k, v in _analysis_options(args).items()},
                           max_cycles=args.max_cycles, signal_tick=args.signal_tick, neat=neat,
-                          reflex_arc=base.task.reflex_arc if args.reflex_arc is None else args.reflex_arc, **fields)
+                          reflex_arc=base.task.reflex_arc if args.reflex_arc is None else args.reflex_arc,
+                          reflex_arc_from=args.reflex_arc_from or base.reflex_arc_from, **fields)
 
 
 def _analysis_options(args) -> dict[str, Any]:
@@ -373,8 +378,10 @@ def cmd_train(args) -> int:
     # after the noise: robust_from "first_solution" needs a noisy task
     config = config.with_overrides(robust_from=args.robust_from, robust_delay=args.robust_delay,
                                    noise_free_branch=args.noise_free_branch)
-    if args.reflex_arc is not None:
-        config = replace(config, task=replace(config.task, reflex_arc=args.reflex_arc))
+    if args.reflex_arc is not None or args.reflex_arc_from is not None:
+        config = replace(config, task=replace(config.task, reflex_arc=config.task.reflex_arc if args.reflex_arc is None
+                                              else args.reflex_arc),
+                         reflex_arc_from=args.reflex_arc_from or config.reflex_arc_from)
     from .storage.folder_lock import folder_lock
 
     with folder_lock(args.out, "run folder"):

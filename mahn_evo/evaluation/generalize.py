@@ -42,20 +42,23 @@ def generalize(run_dir: str | Path, episodes: int = 25, map: str = "plus", param
     modes = {c.mode for c in champs}
     if len(modes) != 1:
         raise ValueError(f"solutions of one run must share a mode, found {sorted(modes)}")
-    if len({c.reflex_arc for c in champs}) != 1:
-        raise ValueError(f"solutions of one run must share a reflex variant (reflex_arc), in {str(run_dir)!r}")
-    params = champs[0].task(params)
-    teams = TeamControllers.stack([c.controllers for c in champs])
     n = len(champs)
-    sim = BatchSim(map, n * episodes, params)
-    batch = teams.map_arrays(lambda a: np.repeat(a, episodes, axis=0))
-    keys = np.tile(np.arange(episodes), n).tolist()
-    res = sim.run_controllers(batch, seed=seed, episode_keys=keys)
-    fit = res.fitness.reshape(n, episodes)
-    solved = res.solved.reshape(n, episodes)
+    fit, solved = np.zeros((n, episodes)), np.zeros((n, episodes), dtype=bool)
+    # each solution is driven with the reflex it was scored with (a run with reflex_arc_from "robust_phase" has
+    # both); the same episode keys for every solution, so the ranking compares teams on the same noise
+    for arc in sorted({c.reflex_arc for c in champs}):
+        idx = [i for i, c in enumerate(champs) if c.reflex_arc == arc]
+        teams = TeamControllers.stack([champs[i].controllers for i in idx])
+        sim = BatchSim(map, len(idx) * episodes, champs[idx[0]].task(params))
+        batch = teams.map_arrays(lambda a: np.repeat(a, episodes, axis=0))
+        keys = np.tile(np.arange(episodes), len(idx)).tolist()
+        res = sim.run_controllers(batch, seed=seed, episode_keys=keys)
+        fit[idx] = res.fitness.reshape(len(idx), episodes)
+        solved[idx] = res.solved.reshape(len(idx), episodes)
     rows: list[dict[str, Any]] = []
     for i, (f, c) in enumerate(zip(files, champs)):
-        rows.append({"file": f.name, "generation": c.generation, "training_fitness": c.fitness,
+        rows.append({"file": f.name, "generation": c.generation, "reflex_arc": c.reflex_arc,
+                     "training_fitness": c.fitness,
                      "mean_fitness": float(fit[i].mean()), "std_fitness": float(fit[i].std()),
                      "solved_fraction": float(solved[i].mean())})
     rows.sort(key=lambda r: (-r["solved_fraction"], -r["mean_fitness"], r["generation"]))

@@ -71,6 +71,7 @@ class ExperimentPlan:
     transfer_episodes: int = 10  # noisy episodes per transfer test
     replays: int = 1  # most general solutions per mode filmed in each protocol and map (GIFs)
     reflex_arc: bool = False  # the arcing reflex (TaskParams.reflex_arc), beyond the paper
+    reflex_arc_from: str = "start"  # or "robust_phase" (see EvolutionConfig.reflex_arc_from)
     max_cycles: int = 1364  # shorter only for smoke tests
     signal_tick: int = 690
     neat: Mapping[str, Any] = field(default_factory=dict)  # NeatSettings overrides (e.g. from a config file)
@@ -118,7 +119,7 @@ class ExperimentPlan:
                                                                          "population_size": self.population}})
         task = base.task.to_dict()
         task.update(max_cycles=self.max_cycles, signal_tick=self.signal_tick, reflex_arc=self.reflex_arc)
-        return EvolutionConfig.from_mapping({**base.to_dict(), "task": task})
+        return EvolutionConfig.from_mapping({**base.to_dict(), "task": task, "reflex_arc_from": self.reflex_arc_from})
 
     def tasks(self, out: str | Path) -> list[tuple[str, int, Path]]:
         """(mode, seed, run folder) for every run, seeds interleaved across modes so partial results stay paired."""

@@ -39,7 +39,11 @@ STOPPING_RULES = ("generations", "stop_when_solved", "after_solved")
 #: settings that only score the generations of a robust phase (robust_from "first_solution"): a run may gain or
 #: change its robust phase when resumed before that phase has started (`continues_before_robust_phase`)
 ROBUST_PHASE_FIELDS = ("task", "episodes", "noise_draws", "aggregate", "quantile", "noise_free_episode",
-                       "map_spread", "map_branch", "branch_sides", "plain_episodes", "robust_from", "robust_delay")
+                       "map_spread", "map_branch", "branch_sides", "plain_episodes", "robust_from", "robust_delay",
+                       "reflex_arc_from")
+#: when a run with the arcing reflex (TaskParams.reflex_arc) uses it: "start" (every generation) or "robust_phase"
+#: (the noise-free phase of robust_from "first_solution" keeps the original's reflex)
+REFLEX_ARC_FROM = ("start", "robust_phase")
 
 
 def robust_phase_start(robust_from: str, robust_delay: int, first_solved: int | None) -> int | None:
@@ -114,6 +118,12 @@ class EvolutionConfig:
     #: runs' logs), which gives the robust phase solved variants to select among.  Hardening at once (0) lost the
     #: solution (docs/results/experiment_harden/).
     robust_delay: int = 0
+    #: with task.reflex_arc (the arcing reflex, beyond the paper): "start" drives every generation with it;
+    #: "robust_phase" (with robust_from "first_solution") keeps the original's reflex until the robust phase, so the
+    #: search is the faithful run's, bit for bit, and only the hardening meets the reflex the teams will drive with.
+    #: Why: from the start the arcing reflex slowed the noise-free search on the seeds tried, while teams evolved
+    #: with the original's reflex fail on robots mostly by its deadlock (docs/results/transfer_failures/).
+    reflex_arc_from: str = "start"
     #: weight of the behavioural-diversity bonus in NEAT's selection (mahn_evo.training.diversity): NEAT selects by
     #: fitness + diversity * (mean distance in cm of the team's robot end positions to its `diversity_k` nearest
     #: teams of the generation).  0 (the default, and the paper) selects by fitness alone.
@@ -176,6 +186,13 @@ class EvolutionConfig:
                 _ = self.noise_free_evaluation  # checks the rest (EvaluationSettings: the map must be plus)
             except ValueError as e:
                 raise ValueError(f"noise_free_branch: {e}") from None
+        if self.reflex_arc_from not in REFLEX_ARC_FROM:
+            raise ValueError(f"reflex_arc_from must be one of {REFLEX_ARC_FROM}, got {self.reflex_arc_from!r}")
+        if self.reflex_arc_from == "robust_phase" and not (self.task.reflex_arc
+                                                            and self.robust_from == "first_solution"):
+            raise ValueError("reflex_arc_from 'robust_phase' switches to the arcing reflex at the robust phase: it "
+                             "needs the arcing reflex (task reflex_arc, --reflex-arc) and robust_from "
+                             "'first_solution'")
         if self.robust_from != "start" and self.task == self.task.without_noise():
             raise ValueError(f"robust_from {self.robust_from!r} switches to a noisy evaluation, but the task has no "
                              "noise: choose a noise preset (--noise generalization)")
@@ -206,7 +223,10 @@ class EvolutionConfig:
         field for field that of the same run without noise (so that phase is bit-identical to it); with
         noise_free_branch B, two: on the map and on a branch variant, as the noise-free run with episodes 2,
         map_branch B, plain_episodes 1 and per-generation draws."""
-        clean = replace(self.evaluation, task=self.task.without_noise(), episodes=1, noise_draws="fixed",
+        task = self.task.without_noise()
+        if self.reflex_arc_from == "robust_phase":
+            task = replace(task, reflex_arc=False)
+        clean = replace(self.evaluation, task=task, episodes=1, noise_draws="fixed",
                         aggregate="mean", quantile=0.25, noise_free_episode=False, map_spread=0.0,
                         map_branch=0.0, branch_sides="both", plain_episodes=0)
         if self.noise_free_branch == 0.0:

@@ -85,6 +85,7 @@ class Trainer:
         self.noise_free_evaluator = (TeamEvaluator(config.noise_free_evaluation)
                                      if config.robust_from == "first_solution" else None)
         self.rows: list[list] = []
+        self._reflex_arc = config.task.reflex_arc  # of the generation being scored (see step)
         self.best_fitness = -np.inf
         self.first_solved: int | None = None
         self.archived_fitness = -np.inf
@@ -207,6 +208,8 @@ class Trainer:
                 # (noise-free scores are not comparable with aggregated noisy ones)
                 self.best_fitness = self.archived_fitness = -np.inf
         ev = evaluator.evaluate(genomes, gen)
+        # a champion records the reflex it was scored with (reflex_arc_from "robust_phase" switches it)
+        self._reflex_arc = evaluator.settings.task.reflex_arc
         order = np.argsort(-ev.fitness, kind="stable")
         best = int(order[0])
         solved_mask = ev.solved >= 1.0
@@ -246,7 +249,7 @@ class Trainer:
     def _champion(self, gen: int, genome: Genome, ev, index: int) -> Champion:
         return Champion(mode=self.config.mode, fitness=float(ev.fitness[index]), solved=bool(ev.solved[index] >= 1),
                         generation=gen, genome=genome, controllers=ev.controllers.team(index),
-                        seed=self.config.seed, map=self.config.map, reflex_arc=self.config.task.reflex_arc)
+                        seed=self.config.seed, map=self.config.map, reflex_arc=self._reflex_arc)
 
     def _record_best(self, gen: int, genomes, ev, best: int) -> None:
         if ev.fitness[best] > self.best_fitness:

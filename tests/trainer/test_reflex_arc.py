@@ -4,6 +4,7 @@ with it, while files without the field keep the original's reflex."""
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 
 import pytest
 
@@ -84,3 +85,49 @@ def test_train_and_experiment_pass_the_flag_to_every_run():
     assert ExperimentPlan().train_config("situational", 1).task.reflex_arc is False
     args = build_parser().parse_args(["experiment", "--out", "x", "--modes", "situational"])
     assert experiment_plan(args).reflex_arc is False
+
+
+def _arc_hardening(**kw) -> EvolutionConfig:
+    cfg = EvolutionConfig(generations=6, seed=7, episodes=2, noise_draws="per_generation",
+                          noise_free_episode=True).with_overrides(pop=24).with_noise("generalization")
+    cfg = cfg.with_overrides(robust_from="first_solution")
+    return replace(cfg, task=replace(cfg.task, reflex_arc=True), **kw)
+
+
+def test_reflex_arc_from_robust_phase_keeps_the_faithful_search_and_hardens_with_the_arcing_reflex(tmp_path):
+    """Before the first solution the run is the noise-free run with the original's reflex, bit for bit (and its
+    champions say so); the robust phase scores with the arcing reflex and its champions record it."""
+    from mahn_evo.training.trainer import Trainer
+
+    hard = Trainer(_arc_hardening(reflex_arc_from="robust_phase"), tmp_path / "h")
+    clean = Trainer(EvolutionConfig(generations=6, seed=7).with_overrides(pop=24), tmp_path / "c")
+    for _ in range(2):
+        hard.step()
+        clean.step()
+    assert [r[:-1] for r in hard.rows] == [r[:-1] for r in clean.rows]
+    assert hard.noise_free_evaluator is not None and hard.noise_free_evaluator.settings == clean.evaluator.settings
+    assert Champion.load(tmp_path / "h" / "champion.json").reflex_arc is False
+    hard.first_solved = 1  # as if generation 1 had held a solution: the robust phase starts at generation 2
+    hard.step()
+    assert hard.evaluator.settings.task.reflex_arc is True
+    champ = Champion.load(tmp_path / "h" / "champion.json")
+    assert champ.generation == 2 and champ.reflex_arc is True
+    # from the start, the arcing reflex scores the noise-free phase too
+    assert Trainer(_arc_hardening(), tmp_path / "s").noise_free_evaluator.settings.task.reflex_arc is True
+
+
+def test_reflex_arc_from_is_checked():
+    with pytest.raises(ValueError, match="reflex_arc_from must be one of"):
+        _arc_hardening(reflex_arc_from="later")
+    cfg = _arc_hardening()
+    with pytest.raises(ValueError, match="needs the arcing reflex"):
+        replace(cfg, task=replace(cfg.task, reflex_arc=False), reflex_arc_from="robust_phase")
+    with pytest.raises(ValueError, match="needs the arcing reflex"):
+        EvolutionConfig(task=TaskParams(reflex_arc=True), reflex_arc_from="robust_phase")
+    args = build_parser().parse_args(["experiment", "--out", "x", "--modes", "situational", "--noise",
+                                      "generalization", "--robust-from", "first_solution", "--after-solved", "10",
+                                      "--reflex-arc", "--reflex-arc-from", "robust_phase"])
+    plan = experiment_plan(args)
+    config = plan.train_config("situational", 3)
+    assert (config.reflex_arc_from, config.task.reflex_arc) == ("robust_phase", True)
+    assert config.noise_free_evaluation.task.reflex_arc is False
