@@ -7,13 +7,17 @@ same team.  A robot that misses coming home is counted as standing when it moved
 STAND_TICKS ticks of its call (a deadlock, see README), as wandering otherwise.
 
 Usage: python docs/results/transfer_failures/stages.py OUT.json CHAMPION.json ... [--blocks 3] [--episodes 10]
-Block k uses episode seeds 1000 k .. 1000 k + episodes - 1.
+       [--reflex {champion,original,arc}]
+Block k uses episode seeds 1000 k .. 1000 k + episodes - 1.  --reflex: drive the teams with the reflex their file
+records (default), or with the original's / the arcing reflex whatever they were evolved with (the deadlock test:
+do the standing home misses go when the side branches drive?).
 """
 from __future__ import annotations
 
 import argparse
 import collections
 import json
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -45,12 +49,14 @@ def standing(result: SequentialResult, k: int) -> bool:
     return bool(np.hypot(*(window - window[-1]).T).max() < STAND_CM)
 
 
-def measure(path: Path, blocks: int, episodes: int) -> dict:
+def measure(path: Path, blocks: int, episodes: int, reflex: str = "champion") -> dict:
     champ = Champion.load(path)
     agents = [f"robot_{k}" for k in range(champ.controllers.n_robots)]
     policy = ControllerPolicy(champ.controllers, agents)
-    params = task_params("generalization")
-    out: dict = {"champion": str(path), "generation": champ.generation, "maps": {}}
+    params = champ.task(task_params("generalization"))
+    if reflex != "champion":
+        params = replace(params, reflex_arc=reflex == "arc")
+    out: dict = {"champion": str(path), "generation": champ.generation, "reflex_arc": params.reflex_arc, "maps": {}}
     for m in MAPS:
         counts, misses, stand = [], collections.Counter(), 0
         for k in range(blocks):
@@ -77,10 +83,11 @@ def main() -> None:
     ap.add_argument("champions", type=Path, nargs="+")
     ap.add_argument("--blocks", type=int, default=3)
     ap.add_argument("--episodes", type=int, default=10)
+    ap.add_argument("--reflex", choices=("champion", "original", "arc"), default="champion")
     a = ap.parse_args()
-    rows = [measure(p, a.blocks, a.episodes) for p in a.champions]
+    rows = [measure(p, a.blocks, a.episodes, a.reflex) for p in a.champions]
     a.out.write_text(json.dumps({"blocks": a.blocks, "episodes": a.episodes, "noise": "generalization",
-                                 "teams": rows}, indent=1) + "\n")
+                                 "reflex": a.reflex, "teams": rows}, indent=1) + "\n")
 
 
 if __name__ == "__main__":
