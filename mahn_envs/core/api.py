@@ -132,7 +132,7 @@ def steer(action: int, readings: Sequence[float] | np.ndarray, velocity: float,
     response = T.REFLEX_CLEAR
     if reflex:
         response = T.reflex_response(q[0], q[1], q[2], q[3], q[4], q[5], np.float32(floor))
-    turn, v = T.steer(act, response, float(speed) if arc else float(velocity), float(speed))
+    turn, v = T.steer(act, response, float(velocity), float(speed), bool(arc))
     return int(turn), float(v)
 
 

@@ -125,14 +125,17 @@ def reflex_response(q0, q1, q2, q3, q4, q5, f_floor):
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def steer(action, response, velocity, speed):
+def steer(action, response, velocity, speed, arc=False):
     """An action and the reflex's response -> (turn, velocity): turn +1 left, -1 right, 0 none, by one step.
 
     Forward: blocked left -> turn right, velocity unchanged; blocked ahead -> stand still without turning;
     blocked right -> turn left, velocity unchanged; clear -> drive at `speed`.  Left and right turn in place.
     "Velocity unchanged" is the original's quirk: a driving robot arcs round the obstacle, a standing one turns
-    in place.
+    in place.  With `arc` (TaskParams.reflex_arc) the side branches drive at `speed` instead, so a standing robot
+    arcs too.
     """
+    if arc:
+        velocity = speed
     if action == FORWARD:
         if response == REFLEX_LEFT_BLOCKED:
             return -1, velocity
@@ -174,9 +177,7 @@ def decide_robot(b, r, action, tick, pose, raw, params, seed, key):
                                    unit_reading(raw[b, r, 4], f_radius, f_ir),
                                    unit_reading(raw[b, r, 5], f_radius, f_ir),
                                    np.float32(params[P_FLOOR]))
-    # reflex 2 (TaskParams.reflex_arc): a side branch drives at speed instead of keeping the velocity
-    kept = pose[b, r, V] if params[P_REFLEX] < 1.5 else speed
-    direction, velocity = steer(action, response, kept, speed)
+    direction, velocity = steer(action, response, pose[b, r, V], speed, params[P_REFLEX] > 1.5)
     pose[b, r, V] = velocity
     if direction > 0:
         pose[b, r, H] += step
