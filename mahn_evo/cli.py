@@ -17,6 +17,7 @@ from .evaluation.task_setup import NOISE_PRESETS
 from .hyperneat.substrate import MODES, SYMMETRIES
 from .hyperneat.team_evaluator import AGGREGATES, NOISE_DRAWS
 from .training.config import INITS, REFLEX_ARC_FROM, ROBUST_FROM, EvolutionConfig, load_config_file
+from .training.lifetime import FITNESS_MEMORY
 from .training.presets import PRESETS, apply_preset
 
 if TYPE_CHECKING:  # the experiment package loads only when an experiment runs
@@ -97,6 +98,11 @@ def _fidelity_and_robustness_options(p: argparse.ArgumentParser) -> None:
                    help="with --reflex-arc: start (default: every generation) or robust_phase (with --robust-from "
                         "first_solution: the original's reflex until the robust phase, so the search is the "
                         "faithful run's and only the hardening uses the arcing reflex)")
+    p.add_argument("--fitness-memory", choices=FITNESS_MEMORY,
+                   help="under noise with --noise-draws per_generation: generation (default: a team's fitness is "
+                        "its score in this generation, as the paper) or lifetime (the mean of its scores over every "
+                        "generation it was scored in; the archive keeps the best team that solved every episode of "
+                        "at least 3 generations), so luck in a few episodes does not pick the teams")
     p.add_argument("--restart-every", type=int, metavar="G",
                    help="until the first solution, start from a fresh population every G generations (default 0: "
                         "never, as the paper); the generation count and the champion carry on")
@@ -264,7 +270,7 @@ def experiment_plan(args: argparse.Namespace) -> ExperimentPlan:
               "plain_episodes": args.plain_episodes,
               "robust_from": args.robust_from,
               "robust_delay": args.robust_delay, "noise_free_branch": args.noise_free_branch,
-              "diversity": args.diversity, "diversity_k": args.diversity_k,
+              "fitness_memory": args.fitness_memory, "diversity": args.diversity, "diversity_k": args.diversity_k,
               "restart_every": args.restart_every}
     # a preset or config file sets the evaluation fields (not the plan's scale: map and after_solved are flags)
     from_base = {k: getattr(base, k) for k in EVOLUTION_FIELDS if k in chosen and (args.preset or args.config)}
@@ -377,7 +383,7 @@ def cmd_train(args) -> int:
         config = config.with_noise(args.noise)
     # after the noise: robust_from "first_solution" needs a noisy task
     config = config.with_overrides(robust_from=args.robust_from, robust_delay=args.robust_delay,
-                                   noise_free_branch=args.noise_free_branch)
+                                   noise_free_branch=args.noise_free_branch, fitness_memory=args.fitness_memory)
     if args.reflex_arc is not None or args.reflex_arc_from is not None:
         config = replace(config, task=replace(config.task, reflex_arc=config.task.reflex_arc if args.reflex_arc is None
                                               else args.reflex_arc),

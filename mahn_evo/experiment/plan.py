@@ -26,8 +26,8 @@ PLAN_FILE = "experiment.json"
 EVOLUTION_FIELDS = ("init", "evaluate_modules", "cppn_activation", "decision", "symmetry", "episodes", "noise_draws",
                     "aggregate", "quantile", "noise_free_episode", "map_spread", "map_branch", "branch_sides",
                     "plain_episodes",
-                    "robust_from", "robust_delay", "noise_free_branch", "diversity", "diversity_k", "restart_every",
-                    "map", "after_solved")
+                    "robust_from", "robust_delay", "noise_free_branch", "fitness_memory", "diversity", "diversity_k",
+                    "restart_every", "map", "after_solved")
 
 #: the report's options: they choose what is tested after the runs, so they may change in an experiment's folder
 REPORT_OPTIONS = ("top", "general_episodes", "transfer_episodes")
@@ -60,6 +60,7 @@ class ExperimentPlan:
     robust_from: str = "start"
     robust_delay: int = 0  # with robust_from "first_solution": noise-free generations after it first
     noise_free_branch: float = 0.0  # and the noise-free phase also on a branch variant of plus (EvolutionConfig)
+    fitness_memory: str = "generation"  # or "lifetime": scores averaged over generations (EvolutionConfig)
     #: behavioural-diversity selection (see EvolutionConfig.diversity): 0 selects by fitness alone
     diversity: float = 0.0
     diversity_k: int = 15
@@ -110,9 +111,9 @@ class ExperimentPlan:
         shared = {k: getattr(self, k) for k in EVOLUTION_FIELDS}
         base = EvolutionConfig(mode=mode, generations=self.generations, seed=seed, stop_when_solved=True,
                                **{**shared, "robust_from": "start", "robust_delay": 0,
-                                  "noise_free_branch": 0.0}).with_noise(self.noise)
+                                  "noise_free_branch": 0.0, "fitness_memory": "generation"}).with_noise(self.noise)
         base = replace(base, robust_from=self.robust_from, robust_delay=self.robust_delay,
-                       noise_free_branch=self.noise_free_branch)
+                       noise_free_branch=self.noise_free_branch, fitness_memory=self.fitness_memory)
         base = base.with_overrides(pop=self.population)
         if self.neat:
             base = EvolutionConfig.from_mapping({**base.to_dict(), "neat": {**base.neat.to_dict(), **self.neat,

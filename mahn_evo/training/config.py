@@ -21,6 +21,7 @@ from mahn_envs.maps.variants import check_branch
 from ..evaluation.task_setup import NOISE_PRESETS
 from ..hyperneat.team_evaluator import EvaluationSettings
 from ..neat.settings import NeatSettings
+from .lifetime import FITNESS_MEMORY
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -40,7 +41,7 @@ STOPPING_RULES = ("generations", "stop_when_solved", "after_solved")
 #: change its robust phase when resumed before that phase has started (`continues_before_robust_phase`)
 ROBUST_PHASE_FIELDS = ("task", "episodes", "noise_draws", "aggregate", "quantile", "noise_free_episode",
                        "map_spread", "map_branch", "branch_sides", "plain_episodes", "robust_from", "robust_delay",
-                       "reflex_arc_from")
+                       "reflex_arc_from", "fitness_memory")
 #: when a run with the arcing reflex (TaskParams.reflex_arc) uses it: "start" (every generation) or "robust_phase"
 #: (the noise-free phase of robust_from "first_solution" keeps the original's reflex)
 REFLEX_ARC_FROM = ("start", "robust_phase")
@@ -124,6 +125,12 @@ class EvolutionConfig:
     #: Why: from the start the arcing reflex slowed the noise-free search on the seeds tried, while teams evolved
     #: with the original's reflex fail on robots mostly by its deadlock (docs/results/transfer_failures/).
     reflex_arc_from: str = "start"
+    #: under noise with per-generation draws: "generation" (a team's fitness is this generation's score, as the
+    #: paper) or "lifetime" (the mean of its scores over every generation the same genome was scored in, and the
+    #: archive keeps the best team that solved every episode of at least LIFETIME_MIN_GENERATIONS of them).  Why: a
+    #: few noisy episodes per generation tell a team failing 5 % of episodes from one failing 1 % by luck
+    #: (mahn_evo.training.lifetime).  With robust_from "first_solution" it applies to the robust phase.
+    fitness_memory: str = "generation"
     #: weight of the behavioural-diversity bonus in NEAT's selection (mahn_evo.training.diversity): NEAT selects by
     #: fitness + diversity * (mean distance in cm of the team's robot end positions to its `diversity_k` nearest
     #: teams of the generation).  0 (the default, and the paper) selects by fitness alone.
@@ -193,6 +200,13 @@ class EvolutionConfig:
             raise ValueError("reflex_arc_from 'robust_phase' switches to the arcing reflex at the robust phase: it "
                              "needs the arcing reflex (task reflex_arc, --reflex-arc) and robust_from "
                              "'first_solution'")
+        if self.fitness_memory not in FITNESS_MEMORY:
+            raise ValueError(f"fitness_memory must be one of {FITNESS_MEMORY}, got {self.fitness_memory!r}")
+        if self.fitness_memory == "lifetime" and (self.noise_draws != "per_generation"
+                                                  or self.task == self.task.without_noise()):
+            raise ValueError("fitness_memory 'lifetime' averages a team's scores over generations of fresh noisy "
+                             "episodes: it needs a noisy task (--noise) and noise_draws 'per_generation' (with "
+                             "fixed draws or no noise every generation repeats the same score)")
         if self.robust_from != "start" and self.task == self.task.without_noise():
             raise ValueError(f"robust_from {self.robust_from!r} switches to a noisy evaluation, but the task has no "
                              "noise: choose a noise preset (--noise generalization)")

@@ -9,7 +9,8 @@ Run folder:
   champion.json    best team so far (CPPN + decoded controllers); with robust_from "first_solution", the best
                    team of the robust phase once it has started
   archive/         every solved champion that improved on the last archived one (the generalisation test
-                   picks among all solutions a run found)
+                   picks among all solutions a run found); with fitness_memory "lifetime", every new leader: the
+                   best team by lifetime mean that solved every episode of LIFETIME_MIN_GENERATIONS generations
   summary.json     mode, seed, generations, best_fitness, solved, first_solved_generation, wall time (and, with
                    robust_from "first_solution", robust_from_generation: the first generation scored under noise;
                    with restart_every, restarts: the generations that started from a fresh population)
@@ -44,6 +45,7 @@ from ..storage.folder_lock import check_folder_usable
 from .champion import Champion
 from .config import STOPPING_RULES, EvolutionConfig, continues_before_robust_phase
 from .diversity import selection_fitness
+from .lifetime import LIFETIME_MIN_GENERATIONS, LifetimeScores, genome_digest
 
 #: what a run writes into its folder; --overwrite removes exactly these (and archive/)
 RUN_FILES = ("config.json", "log.csv", "checkpoint.json", "summary.json", "champion.json", "fitness.png",
@@ -90,6 +92,10 @@ class Trainer:
         self.first_solved: int | None = None
         self.archived_fitness = -np.inf
         self.wall = 0.0
+        #: fitness_memory "lifetime": the teams' scores over the generations they were scored in under noise, and
+        #: the digest of the last leader archived
+        self.lifetime = LifetimeScores()
+        self.last_archived: str | None = None
         remove_stray_temp_files(self.out)
         ckpt = self.out / "checkpoint.json"
         if resume and not ckpt.exists() and (self.out / "config.json").exists():
@@ -163,6 +169,11 @@ class Trainer:
             self.archived_fitness = -np.inf if t["archived_fitness"] is None else float(t["archived_fitness"])
             self.wall = float(t["wall_seconds"])
             self.rows = t["log"]
+            self.last_archived = t.get("last_archived")
+            if self.last_archived is not None and not isinstance(self.last_archived, str):
+                raise TypeError("'last_archived' must be a genome digest (text) or null")
+            if t.get("lifetime") is not None:
+                self.lifetime = LifetimeScores.from_list(self.population.genomes, t["lifetime"])
             if not isinstance(self.rows, list) or not all(isinstance(r, list) and len(r) == len(LOG_HEADER)
                                                           for r in self.rows):
                 raise TypeError(f"'log' must hold rows of {len(LOG_HEADER)} values ({', '.join(LOG_HEADER)})")
@@ -183,6 +194,9 @@ class Trainer:
             "first_solved": self.first_solved,
             "archived_fitness": None if not np.isfinite(self.archived_fitness) else self.archived_fitness,
             "wall_seconds": self.wall, "log": self.rows}}
+        if self.config.fitness_memory == "lifetime":
+            state["trainer"]["lifetime"] = self.lifetime.to_list(self.population.genomes)
+            state["trainer"]["last_archived"] = self.last_archived
         atomic_write_checked_json(self.out / "checkpoint.json", "checkpoint", state)
 
     # ------------------------------------------------------------------ loop
@@ -214,15 +228,18 @@ class Trainer:
         best = int(order[0])
         solved_mask = ev.solved >= 1.0
         self._record_best(gen, genomes, ev, best)
-        if solved_mask.any():
-            if self.first_solved is None:
-                self.first_solved = gen
+        if solved_mask.any() and self.first_solved is None:
+            self.first_solved = gen
+        fitness = ev.fitness
+        if cfg.fitness_memory == "lifetime" and evaluator is self.evaluator:
+            fitness = self._archive_lifetime_leader(gen, genomes, ev, solved_mask)
+        elif solved_mask.any():
             s_best = int(order[np.argmax(solved_mask[order])])
             if ev.fitness[s_best] > self.archived_fitness:
                 self.archived_fitness = float(ev.fitness[s_best])
                 self._champion(gen, genomes[s_best], ev, s_best).save(
                     self.out / "archive" / f"solution_g{gen:05d}_i{s_best:04d}.json")
-        stats = self.population.tell(selection_fitness(ev.fitness, ev.end_positions, cfg.diversity, cfg.diversity_k))
+        stats = self.population.tell(selection_fitness(fitness, ev.end_positions, cfg.diversity, cfg.diversity_k))
         seconds = time.perf_counter() - t0
         self.wall += seconds
         evaluations = (self.rows[-1][1] if self.rows else 0) + len(genomes) * episodes * evaluator.readings
@@ -246,8 +263,24 @@ class Trainer:
                                             n_inputs=cfg.n_cppn_inputs)
         self.population.generation = gen
 
-    def _champion(self, gen: int, genome: Genome, ev, index: int) -> Champion:
-        return Champion(mode=self.config.mode, fitness=float(ev.fitness[index]), solved=bool(ev.solved[index] >= 1),
+    def _archive_lifetime_leader(self, gen: int, genomes: list[Genome], ev, solved_mask: np.ndarray) -> np.ndarray:
+        """fitness_memory "lifetime": record this generation's scores, archive the leader when it is a new team,
+        and return the lifetime means NEAT selects by (mahn_evo.training.lifetime)."""
+        mean, scored, all_solved = self.lifetime.update(genomes, ev.fitness, solved_mask)
+        eligible = np.flatnonzero(all_solved & (scored >= LIFETIME_MIN_GENERATIONS))
+        if len(eligible):
+            leader = int(eligible[np.argmax(mean[eligible])])
+            digest = genome_digest(genomes[leader])
+            if digest != self.last_archived:
+                self.last_archived = digest
+                self._champion(gen, genomes[leader], ev, leader, fitness=float(mean[leader])).save(
+                    self.out / "archive" / f"solution_g{gen:05d}_i{leader:04d}.json")
+        return mean
+
+    def _champion(self, gen: int, genome: Genome, ev, index: int, fitness: float | None = None) -> Champion:
+        """The team `index` of a generation; `fitness` (default: its score in this generation) is what it records."""
+        return Champion(mode=self.config.mode, fitness=float(ev.fitness[index]) if fitness is None else fitness,
+                        solved=bool(ev.solved[index] >= 1),
                         generation=gen, genome=genome, controllers=ev.controllers.team(index),
                         seed=self.config.seed, map=self.config.map, reflex_arc=self._reflex_arc)
 

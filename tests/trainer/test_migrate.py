@@ -137,6 +137,7 @@ V2_TRAIN_DEFAULTS = {
     "episodes": 1, "noise_draws": "fixed",
     "aggregate": "mean", "quantile": 0.25, "noise_free_episode": False, "map_spread": 0.0, "map_branch": 0.0,
     "branch_sides": "both", "plain_episodes": 0, "robust_from": "start", "robust_delay": 0, "reflex_arc_from": "start",
+    "fitness_memory": "generation",
     "noise_free_branch": 0.0,
     "diversity": 0.0, "diversity_k": 15, "restart_every": 0, "stop_when_solved": False,
     "after_solved": 0, "checkpoint_every": 1,
