@@ -104,6 +104,9 @@ def _robust_text(plan: dict[str, Any]) -> str:
             f"({plan['noise_draws']} draws, {plan['aggregate']} aggregate"
             f"{', plus one noise-free episode' if plan.get('noise_free_episode') else ''}"
             f"{' on the map itself' if plan.get('noise_free_episode') and maps else ''})")
+    if plan.get("fitness_memory", "generation") == "lifetime":
+        text += (", a team's fitness the mean of its scores over every generation it was scored in and the archive "
+                 "its leaders (`--fitness-memory lifetime`)")
     if plan.get("robust_from", "start") == "first_solution":
         clean_branch = float(plan.get("noise_free_branch", 0.0))
         on = (f" (on plus and on a plus variant with side arms leaving the top arm [0, {clean_branch:g}] cm above "
