@@ -100,9 +100,10 @@ def _fidelity_and_robustness_options(p: argparse.ArgumentParser) -> None:
                         "faithful run's and only the hardening uses the arcing reflex)")
     p.add_argument("--fitness-memory", choices=FITNESS_MEMORY,
                    help="under noise with --noise-draws per_generation: generation (default: a team's fitness is "
-                        "its score in this generation, as the paper) or lifetime (the mean of its scores over every "
+                        "its score in this generation, as the paper), lifetime (the mean of its scores over every "
                         "generation it was scored in; the archive keeps the best team that solved every episode of "
-                        "at least 3 generations), so luck in a few episodes does not pick the teams")
+                        "at least 3 generations), so luck in a few episodes does not pick the teams, or archive "
+                        "(NEAT selects by the generation's score, the archive keeps lifetime leaders)")
     p.add_argument("--restart-every", type=int, metavar="G",
                    help="until the first solution, start from a fresh population every G generations (default 0: "
                         "never, as the paper); the generation count and the champion carry on")

@@ -107,6 +107,9 @@ def _robust_text(plan: dict[str, Any]) -> str:
     if plan.get("fitness_memory", "generation") == "lifetime":
         text += (", a team's fitness the mean of its scores over every generation it was scored in and the archive "
                  "its leaders (`--fitness-memory lifetime`)")
+    elif plan.get("fitness_memory", "generation") == "archive":
+        text += (", NEAT selecting by each generation's score and the archive keeping the leaders by the mean over "
+                 "every generation a team was scored in (`--fitness-memory archive`)")
     if plan.get("robust_from", "start") == "first_solution":
         clean_branch = float(plan.get("noise_free_branch", 0.0))
         on = (f" (on plus and on a plus variant with side arms leaving the top arm [0, {clean_branch:g}] cm above "

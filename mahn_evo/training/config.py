@@ -129,7 +129,8 @@ class EvolutionConfig:
     #: paper) or "lifetime" (the mean of its scores over every generation the same genome was scored in, and the
     #: archive keeps the best team that solved every episode of at least LIFETIME_MIN_GENERATIONS of them).  Why: a
     #: few noisy episodes per generation tell a team failing 5 % of episodes from one failing 1 % by luck
-    #: (mahn_evo.training.lifetime).  With robust_from "first_solution" it applies to the robust phase.
+    #: (mahn_evo.training.lifetime).  "archive": NEAT selects by the generation's score and only the archive keeps
+    #: lifetime leaders.  With robust_from "first_solution" it applies to the robust phase.
     fitness_memory: str = "generation"
     #: weight of the behavioural-diversity bonus in NEAT's selection (mahn_evo.training.diversity): NEAT selects by
     #: fitness + diversity * (mean distance in cm of the team's robot end positions to its `diversity_k` nearest
@@ -202,11 +203,11 @@ class EvolutionConfig:
                              "'first_solution'")
         if self.fitness_memory not in FITNESS_MEMORY:
             raise ValueError(f"fitness_memory must be one of {FITNESS_MEMORY}, got {self.fitness_memory!r}")
-        if self.fitness_memory == "lifetime" and (self.noise_draws != "per_generation"
-                                                  or self.task == self.task.without_noise()):
-            raise ValueError("fitness_memory 'lifetime' averages a team's scores over generations of fresh noisy "
-                             "episodes: it needs a noisy task (--noise) and noise_draws 'per_generation' (with "
-                             "fixed draws or no noise every generation repeats the same score)")
+        if self.fitness_memory != "generation" and (self.noise_draws != "per_generation"
+                                                    or self.task == self.task.without_noise()):
+            raise ValueError(f"fitness_memory {self.fitness_memory!r} averages a team's scores over generations "
+                             "of fresh noisy episodes: it needs a noisy task (--noise) and noise_draws "
+                             "'per_generation' (with fixed draws or no noise every generation repeats the same score)")
         if self.robust_from != "start" and self.task == self.task.without_noise():
             raise ValueError(f"robust_from {self.robust_from!r} switches to a noisy evaluation, but the task has no "
                              "noise: choose a noise preset (--noise generalization)")

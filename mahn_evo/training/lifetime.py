@@ -25,9 +25,11 @@ import numpy as np
 from ..hyperneat.memo import genome_key
 from ..neat.genome import Genome
 
-#: "generation" (a team's fitness is its score in this generation, as the paper) or "lifetime" (the mean of its
-#: scores over the generations it has been scored in, under noise; see this module)
-FITNESS_MEMORY = ("generation", "lifetime")
+#: "generation" (a team's fitness is its score in this generation, as the paper), "lifetime" (the mean of its
+#: scores over the generations it has been scored in, under noise; see this module) or "archive" (NEAT selects by
+#: the generation's score, as with "generation", and only the archive keeps lifetime leaders: the two parts of
+#: "lifetime" apart)
+FITNESS_MEMORY = ("generation", "lifetime", "archive")
 #: generations a team must have been scored in (solving every episode of each) before the archive keeps it
 LIFETIME_MIN_GENERATIONS = 3
 

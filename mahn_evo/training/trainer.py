@@ -9,8 +9,9 @@ Run folder:
   champion.json    best team so far (CPPN + decoded controllers); with robust_from "first_solution", the best
                    team of the robust phase once it has started
   archive/         every solved champion that improved on the last archived one (the generalisation test
-                   picks among all solutions a run found); with fitness_memory "lifetime", every new leader: the
-                   best team by lifetime mean that solved every episode of LIFETIME_MIN_GENERATIONS generations
+                   picks among all solutions a run found); with fitness_memory "lifetime" or "archive", every new
+                   leader: the best team by lifetime mean that solved every episode of LIFETIME_MIN_GENERATIONS
+                   generations
   summary.json     mode, seed, generations, best_fitness, solved, first_solved_generation, wall time (and, with
                    robust_from "first_solution", robust_from_generation: the first generation scored under noise;
                    with restart_every, restarts: the generations that started from a fresh population)
@@ -92,8 +93,8 @@ class Trainer:
         self.first_solved: int | None = None
         self.archived_fitness = -np.inf
         self.wall = 0.0
-        #: fitness_memory "lifetime": the teams' scores over the generations they were scored in under noise, and
-        #: the digest of the last leader archived
+        #: fitness_memory "lifetime" or "archive": the teams' scores over the generations they were scored in
+        #: under noise, and the digest of the last leader archived
         self.lifetime = LifetimeScores()
         self.last_archived: str | None = None
         remove_stray_temp_files(self.out)
@@ -194,7 +195,7 @@ class Trainer:
             "first_solved": self.first_solved,
             "archived_fitness": None if not np.isfinite(self.archived_fitness) else self.archived_fitness,
             "wall_seconds": self.wall, "log": self.rows}}
-        if self.config.fitness_memory == "lifetime":
+        if self.config.fitness_memory != "generation":
             state["trainer"]["lifetime"] = self.lifetime.to_list(self.population.genomes)
             state["trainer"]["last_archived"] = self.last_archived
         atomic_write_checked_json(self.out / "checkpoint.json", "checkpoint", state)
@@ -231,8 +232,10 @@ class Trainer:
         if solved_mask.any() and self.first_solved is None:
             self.first_solved = gen
         fitness = ev.fitness
-        if cfg.fitness_memory == "lifetime" and evaluator is self.evaluator:
-            fitness = self._archive_lifetime_leader(gen, genomes, ev, solved_mask)
+        if cfg.fitness_memory != "generation" and evaluator is self.evaluator:
+            mean = self._archive_lifetime_leader(gen, genomes, ev, solved_mask)
+            if cfg.fitness_memory == "lifetime":
+                fitness = mean
         elif solved_mask.any():
             s_best = int(order[np.argmax(solved_mask[order])])
             if ev.fitness[s_best] > self.archived_fitness:
@@ -264,8 +267,8 @@ class Trainer:
         self.population.generation = gen
 
     def _archive_lifetime_leader(self, gen: int, genomes: list[Genome], ev, solved_mask: np.ndarray) -> np.ndarray:
-        """fitness_memory "lifetime": record this generation's scores, archive the leader when it is a new team,
-        and return the lifetime means NEAT selects by (mahn_evo.training.lifetime)."""
+        """fitness_memory "lifetime" or "archive": record this generation's scores, archive the leader when it is
+        a new team, and return the lifetime means (what NEAT selects by with "lifetime"; mahn_evo.training.lifetime)."""
         mean, scored, all_solved = self.lifetime.update(genomes, ev.fitness, solved_mask)
         eligible = np.flatnonzero(all_solved & (scored >= LIFETIME_MIN_GENERATIONS))
         if len(eligible):

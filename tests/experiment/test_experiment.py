@@ -200,6 +200,7 @@ def test_the_table_counts_runs_that_solve_under_noise_in_their_robust_phase(tmp_
     assert _robust_text(noise_free.to_dict()) == ""
     assert "lifetime" not in text
     assert "(`--fitness-memory lifetime`)" in _robust_text(replace(plan, fitness_memory="lifetime").to_dict())
+    assert "(`--fitness-memory archive`)" in _robust_text(replace(plan, fitness_memory="archive").to_dict())
 
 
 def test_more_generations_after_the_solution_extend_an_experiment_fewer_are_refused(tmp_path):

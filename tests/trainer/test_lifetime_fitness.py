@@ -101,11 +101,31 @@ def test_selection_uses_the_lifetime_mean_and_a_resumed_run_is_the_uninterrupted
         straight.population.genomes)
 
 
+def test_archive_mode_selects_by_the_generation_score_and_keeps_the_lifetime_records(tmp_path):
+    """fitness_memory "archive" is the "generation" run bit for bit (NEAT sees the same fitness), with the lifetime
+    records kept for the archive's leaders, and it resumes to the uninterrupted run."""
+    archive = Trainer(_config(fitness_memory="archive"), tmp_path / "a")
+    archive.run()
+    plain = Trainer(_config(fitness_memory="generation"), tmp_path / "p")
+    plain.run()
+    assert [r[:-1] for r in archive.rows] == [r[:-1] for r in plain.rows]
+    records = archive.lifetime.to_list(archive.population.genomes)
+    assert any(r is not None for r in records)  # the next generation's elites carry theirs
+    stopped = Trainer(replace(_config(fitness_memory="archive"), generations=3), tmp_path / "b")
+    stopped.run()
+    resumed = Trainer(_config(fitness_memory="archive"), tmp_path / "b", resume=True)
+    resumed.run()
+    assert [r[:-1] for r in resumed.rows] == [r[:-1] for r in plain.rows]
+    assert resumed.lifetime.to_list(resumed.population.genomes) == records
+
+
 def test_lifetime_needs_fresh_noisy_draws_and_reaches_every_run_of_an_experiment():
     with pytest.raises(ValueError, match="fitness_memory must be one of"):
         _config(fitness_memory="forever")
     with pytest.raises(ValueError, match="per_generation"):
         _config(noise_draws="fixed")
+    with pytest.raises(ValueError, match="fitness_memory 'archive'.*per_generation"):
+        _config(noise_draws="fixed", fitness_memory="archive")
     with pytest.raises(ValueError, match="noisy task"):
         EvolutionConfig(noise_draws="per_generation", fitness_memory="lifetime")
     args = build_parser().parse_args(["experiment", "--out", "x", "--modes", "situational", "--noise",
