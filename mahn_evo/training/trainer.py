@@ -236,12 +236,8 @@ class Trainer:
             mean = self._archive_lifetime_leader(gen, genomes, ev, solved_mask)
             if cfg.fitness_memory == "lifetime":
                 fitness = mean
-        elif solved_mask.any():
-            s_best = int(order[np.argmax(solved_mask[order])])
-            if ev.fitness[s_best] > self.archived_fitness:
-                self.archived_fitness = float(ev.fitness[s_best])
-                self._champion(gen, genomes[s_best], ev, s_best).save(
-                    self.out / "archive" / f"solution_g{gen:05d}_i{s_best:04d}.json")
+        else:
+            self._archive_record(gen, genomes, ev, order, solved_mask)
         stats = self.population.tell(selection_fitness(fitness, ev.end_positions, cfg.diversity, cfg.diversity_k))
         seconds = time.perf_counter() - t0
         self.wall += seconds
@@ -265,6 +261,16 @@ class Trainer:
         self.population = Population.create(cfg.neat, seed=cfg.restart_seed(gen), kind=cfg.init,
                                             n_inputs=cfg.n_cppn_inputs)
         self.population.generation = gen
+
+    def _archive_record(self, gen: int, genomes: list[Genome], ev, order: np.ndarray, solved_mask: np.ndarray) -> None:
+        """The default archive: the generation's best solved team when it beats the last one archived."""
+        if not solved_mask.any():
+            return
+        s_best = int(order[np.argmax(solved_mask[order])])
+        if ev.fitness[s_best] > self.archived_fitness:
+            self.archived_fitness = float(ev.fitness[s_best])
+            self._champion(gen, genomes[s_best], ev, s_best).save(
+                self.out / "archive" / f"solution_g{gen:05d}_i{s_best:04d}.json")
 
     def _archive_lifetime_leader(self, gen: int, genomes: list[Genome], ev, solved_mask: np.ndarray) -> np.ndarray:
         """fitness_memory "lifetime" or "archive": record this generation's scores, archive the leader when it is
