@@ -60,7 +60,7 @@ class ExperimentPlan:
     robust_from: str = "start"
     robust_delay: int = 0  # with robust_from "first_solution": noise-free generations after it first
     noise_free_branch: float = 0.0  # and the noise-free phase also on a branch variant of plus (EvolutionConfig)
-    fitness_memory: str = "generation"  # or "lifetime": scores averaged over generations (EvolutionConfig)
+    fitness_memory: str = "generation"  # "lifetime" / "archive": scores averaged over generations (EvolutionConfig)
     #: behavioural-diversity selection (see EvolutionConfig.diversity): 0 selects by fitness alone
     diversity: float = 0.0
     diversity_k: int = 15

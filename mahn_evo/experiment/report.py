@@ -82,6 +82,15 @@ def _ties(entry: dict[str, Any]) -> str:
     return f"{100 * m['tied_fraction']:.0f}% / {100 * m['near_tie_fraction']:.0f}%{flips}"
 
 
+#: how a plan's fitness_memory (other than the paper's "generation") reads in the report's first line
+_MEMORY_TEXT = {
+    "lifetime": (", a team's fitness the mean of its scores over every generation it was scored in and the archive "
+                 "its leaders (`--fitness-memory lifetime`)"),
+    "archive": (", NEAT selecting by each generation's score and the archive keeping the leaders by the mean over "
+                "every generation a team was scored in (`--fitness-memory archive`)"),
+}
+
+
 def _robust_text(plan: dict[str, Any]) -> str:
     """How the plan's runs were scored under noise and on which maps, for the report's first line ('' for
     noise-free plans on the map alone)."""
@@ -104,12 +113,7 @@ def _robust_text(plan: dict[str, Any]) -> str:
             f"({plan['noise_draws']} draws, {plan['aggregate']} aggregate"
             f"{', plus one noise-free episode' if plan.get('noise_free_episode') else ''}"
             f"{' on the map itself' if plan.get('noise_free_episode') and maps else ''})")
-    if plan.get("fitness_memory", "generation") == "lifetime":
-        text += (", a team's fitness the mean of its scores over every generation it was scored in and the archive "
-                 "its leaders (`--fitness-memory lifetime`)")
-    elif plan.get("fitness_memory", "generation") == "archive":
-        text += (", NEAT selecting by each generation's score and the archive keeping the leaders by the mean over "
-                 "every generation a team was scored in (`--fitness-memory archive`)")
+    text += _MEMORY_TEXT.get(plan.get("fitness_memory", "generation"), "")
     if plan.get("robust_from", "start") == "first_solution":
         clean_branch = float(plan.get("noise_free_branch", 0.0))
         on = (f" (on plus and on a plus variant with side arms leaving the top arm [0, {clean_branch:g}] cm above "
