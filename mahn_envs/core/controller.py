@@ -303,6 +303,65 @@ def pack_networks(wt_ih, wt_hh, wt_ho, b_h, b_o, wpack, bpack):
                     bpack[b, r, k, OUT_LANE + q] = b_o[b, r, k, q]
 
 
+def _network_16_ir(builder: ir.IRBuilder, p_state, p_w, p_b, p_obs, p_tab, units: list) -> None:
+    """IR of `_network_16` for several independent networks at once, their operations interleaved.
+
+    `units` lists each network's element offsets (state_at, w_at, b_at, obs_at).  One network is a chain of
+    dependent additions and two sigmoids (about 300 cycles of latency, bit-identity forbids reassociating it);
+    the networks of a tick's robots do not depend on each other, so emitting their operations side by side lets
+    the core overlap the chains.  Every lane of every unit does the operations of the one-network path in the
+    same order: the results are bit-identical."""
+    i32, i64 = ir.IntType(32), ir.IntType(64)
+    vf = ir.VectorType(ir.FloatType(), LANES)
+
+    def ptr(p, at, k):
+        return builder.gep(p, [builder.add(at, ir.Constant(i64, k))], inbounds=True)
+
+    def row(p, at, k):
+        return builder.load(builder.bitcast(ptr(p, at, k), vf.as_pointer()), align=4)
+
+    def splat(x):
+        v = builder.insert_element(ir.Constant(vf, ir.Undefined), x, ir.Constant(i32, 0))
+        return builder.shuffle_vector(v, ir.Constant(vf, ir.Undefined),
+                                      ir.Constant(ir.VectorType(i32, LANES), [0] * LANES))
+
+    zero = ir.Constant(vf, [0.0] * LANES)
+    hidden_lanes = ir.Constant(ir.VectorType(ir.IntType(1), LANES),
+                               [1 if i < OUT_LANE else 0 for i in range(LANES)])
+    inputs = [[splat(builder.load(ptr(p_obs, u[3], j))) for j in range(7)] for u in units]
+    bias = [row(p_b, u[2], 0) for u in units]
+    s = [row(p_state, u[0], 0) for u in units]
+    net = list(s)
+    for step in range(2):
+        acc = [zero] * len(units)
+        for j in range(7):
+            for n, u in enumerate(units):
+                acc[n] = builder.fadd(acc[n], builder.fmul(row(p_w, u[1], LANES * j), inputs[n][j]))
+        if step == 1:
+            acc = [builder.select(hidden_lanes, a, zero) for a in acc]
+        for m in range(9):
+            for n, u in enumerate(units):
+                hm = splat(builder.extract_element(s[n], ir.Constant(i32, m)))
+                acc[n] = builder.fadd(acc[n], builder.fmul(row(p_w, u[1], LANES * (7 + m)), hm))
+        net = [builder.fadd(a, bb) for a, bb in zip(acc, bias)]
+        s = [sigmoid_ir(builder, x, p_tab) for x in net]
+    # lanes NET_LANE.. take the output lanes' net inputs (index LANES + i picks lane i of `net`)
+    keep = ir.Constant(ir.VectorType(i32, LANES),
+                       list(range(NET_LANE)) + [LANES + OUT_LANE + q for q in range(3)] + [LANES - 1])
+    for n, u in enumerate(units):
+        out = builder.shuffle_vector(s[n], net[n], keep)
+        builder.store(out, builder.bitcast(ptr(p_state, u[0], 0), vf.as_pointer()), align=4)
+
+
+def _packed_types_ok(state, wpack, bpack, obs, table) -> bool:
+    f4 = types.float32
+    return (isinstance(state, types.Array) and state.dtype == f4 and state.layout == "C"
+            and isinstance(wpack, types.Array) and wpack.dtype == f4 and wpack.layout == "C"
+            and isinstance(bpack, types.Array) and bpack.dtype == f4 and bpack.layout == "C"
+            and isinstance(obs, types.Array) and obs.dtype == f4 and obs.layout == "C"
+            and isinstance(table, types.Array) and table.dtype == types.uint64)
+
+
 @intrinsic
 def _network_16(typingctx, state, state_at, wpack, w_at, bpack, b_at, obs, obs_at, table):
     """Both synchronous steps of a 7-input, 9-hidden network (`network_action_9`) with every node in one lane of a
@@ -318,83 +377,78 @@ def _network_16(typingctx, state, state_at, wpack, w_at, bpack, b_at, obs, obs_a
     output net inputs (sum + bias, before the sigmoid) are kept in lanes NET_LANE..NET_LANE+2 for the
     "net_input" decision.
     """
-    f4 = types.float32
-    if not (isinstance(state, types.Array) and state.dtype == f4 and state.layout == "C"
-            and isinstance(wpack, types.Array) and wpack.dtype == f4 and wpack.layout == "C"
-            and isinstance(bpack, types.Array) and bpack.dtype == f4 and bpack.layout == "C"
-            and isinstance(obs, types.Array) and obs.dtype == f4 and obs.layout == "C"
-            and isinstance(table, types.Array) and table.dtype == types.uint64):
+    if not _packed_types_ok(state, wpack, bpack, obs, table):
         return None
     sig = types.void(state, types.intp, wpack, types.intp, bpack, types.intp, obs, types.intp, table)
 
     def codegen(context, builder, signature, args):
-        i32, i64 = ir.IntType(32), ir.IntType(64)
-        vf = ir.VectorType(ir.FloatType(), LANES)
         p_state, p_w, p_b, p_obs, p_tab = (context.make_array(signature.args[a])(context, builder, args[a]).data
                                            for a in (0, 2, 4, 6, 8))
-        state_at, w_at, b_at, obs_at = args[1], args[3], args[5], args[7]
-
-        def ptr(p, at, k):
-            return builder.gep(p, [builder.add(at, ir.Constant(i64, k))], inbounds=True)
-
-        def row(p, at, k):
-            return builder.load(builder.bitcast(ptr(p, at, k), vf.as_pointer()), align=4)
-
-        def splat(x):
-            v = builder.insert_element(ir.Constant(vf, ir.Undefined), x, ir.Constant(i32, 0))
-            return builder.shuffle_vector(v, ir.Constant(vf, ir.Undefined),
-                                          ir.Constant(ir.VectorType(i32, LANES), [0] * LANES))
-
-        zero = ir.Constant(vf, [0.0] * LANES)
-        hidden_lanes = ir.Constant(ir.VectorType(ir.IntType(1), LANES),
-                                   [1 if i < OUT_LANE else 0 for i in range(LANES)])
-        inputs = [splat(builder.load(ptr(p_obs, obs_at, j))) for j in range(7)]
-        bias = row(p_b, b_at, 0)
-        s = row(p_state, state_at, 0)
-        for step in range(2):
-            acc = zero
-            for j in range(7):
-                acc = builder.fadd(acc, builder.fmul(row(p_w, w_at, LANES * j), inputs[j]))
-            if step == 1:
-                acc = builder.select(hidden_lanes, acc, zero)
-            for m in range(9):
-                hm = splat(builder.extract_element(s, ir.Constant(i32, m)))
-                acc = builder.fadd(acc, builder.fmul(row(p_w, w_at, LANES * (7 + m)), hm))
-            net = builder.fadd(acc, bias)
-            s = sigmoid_ir(builder, net, p_tab)
-        # lanes NET_LANE.. take the output lanes' net inputs (index LANES + i picks lane i of `net`)
-        keep = list(range(NET_LANE)) + [LANES + OUT_LANE + q for q in range(3)] + [LANES - 1]
-        s = builder.shuffle_vector(s, net, ir.Constant(ir.VectorType(i32, LANES), keep))
-        builder.store(s, builder.bitcast(ptr(p_state, state_at, 0), vf.as_pointer()), align=4)
+        _network_16_ir(builder, p_state, p_w, p_b, p_obs, p_tab, [(args[1], args[3], args[5], args[7])])
         return context.get_dummy_value()
 
     return sig, codegen
 
 
+def _networks_16_of(n_units: int):
+    """An intrinsic stepping `n_units` packed networks at once (`_network_16_ir`): (state, wpack, bpack, obs,
+    table, pending) with pending (>= n_units, PENDING) int64 rows whose first four columns are each network's
+    (state_at, w_at, b_at, obs_at)."""
+
+    @intrinsic
+    def networks(typingctx, state, wpack, bpack, obs, table, pending):
+        if not (_packed_types_ok(state, wpack, bpack, obs, table) and isinstance(pending, types.Array)
+                and pending.dtype == types.int64 and pending.ndim == 2 and pending.layout == "C"):
+            return None
+        sig = types.void(state, wpack, bpack, obs, table, pending)
+
+        def codegen(context, builder, signature, args):
+            p_state, p_w, p_b, p_obs, p_tab = (context.make_array(signature.args[a])(context, builder, args[a]).data
+                                               for a in range(5))
+            p_pend = context.make_array(signature.args[5])(context, builder, args[5]).data
+            i64 = ir.IntType(64)
+            units = [tuple(builder.load(builder.gep(p_pend, [ir.Constant(i64, n * PENDING + c)], inbounds=True))
+                           for c in range(4)) for n in range(n_units)]
+            _network_16_ir(builder, p_state, p_w, p_b, p_obs, p_tab, units)
+            return context.get_dummy_value()
+
+        return sig, codegen
+
+    return networks
+
+
+#: columns of a pending network (`remembered_actions_16`): state_at, w_at, b_at, obs_at, robot, brain before
+PENDING = 6
+_networks_16_1 = _networks_16_of(1)
+_networks_16_2 = _networks_16_of(2)
+_networks_16_3 = _networks_16_of(3)
+
+
 @njit(cache=True, error_model="numpy", inline="always")
-def remembered_action_16(b, r, obs, rflag_signal, n_brains, wpack, bpack, state, brain, prev, memo_obs, memo,
-                         by_net=False):
-    """`remembered_action` for packed networks (`pack_networks`): the same memo, brain switch and results, the
-    two steps in `_network_16`.  state (B, R, 16) float32 holds hidden nodes 0..8, outputs 9..11 and their net
-    inputs 12..14."""
+def _recall_16(b, r, obs, rflag_signal, n_brains, state, brain, prev, memo_obs, memo):
+    """The first half of `remembered_action_16` for robot r: True when the memo holds its action (nothing to
+    compute); otherwise the hidden state saved in prev[:9] and the brain switched (a switch clears the state)."""
     if memo[r, 0] == 1 and memo[r, 1] == rflag_signal:
         same = True
         for j in range(7):
             if obs[b, r, j] != memo_obs[r, j]:
                 same = False
         if same:
-            return memo[r, 2]
+            return True
     for i in range(9):
         prev[i] = state[b, r, i]
-    k = brain[b, r]
     wanted = 1 if (n_brains == 2 and rflag_signal != 0) else 0
-    if wanted != k:  # switch brains (a cleared signal, in operator protocols, switches back)
+    if wanted != brain[b, r]:  # switch brains (a cleared signal, in operator protocols, switches back)
         brain[b, r] = wanted
         for i in range(OUT_LANE + 3):
             state[b, r, i] = 0.0
-    unit = (b * state.shape[1] + r) * n_brains + brain[b, r]
-    _network_16(state, (b * state.shape[1] + r) * LANES, wpack, unit * LANES * LANES, bpack, unit * LANES, obs,
-                (b * obs.shape[1] + r) * obs.shape[2], TABLE)
+    return False
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _remember_16(b, r, k, obs, rflag_signal, state, brain, prev, memo_obs, memo, by_net):
+    """The second half of `remembered_action_16`, after robot r's network stepped from brain k: its action,
+    remembered with whether the step left the hidden state (prev[:9]) and brain unchanged."""
     at = NET_LANE if by_net else OUT_LANE
     action = winner_take_all(state[b, r, at], state[b, r, at + 1], state[b, r, at + 2])
     fixed = brain[b, r] == k
@@ -407,3 +461,62 @@ def remembered_action_16(b, r, obs, rflag_signal, n_brains, wpack, bpack, state,
     memo[r, 1] = rflag_signal
     memo[r, 2] = action
     return action
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def remembered_action_16(b, r, obs, rflag_signal, n_brains, wpack, bpack, state, brain, prev, memo_obs, memo,
+                         by_net=False):
+    """`remembered_action` for packed networks (`pack_networks`): the same memo, brain switch and results, the
+    two steps in `_network_16`.  state (B, R, 16) float32 holds hidden nodes 0..8, outputs 9..11 and their net
+    inputs 12..14."""
+    k = brain[b, r]
+    if _recall_16(b, r, obs, rflag_signal, n_brains, state, brain, prev, memo_obs, memo):
+        return memo[r, 2]
+    unit = (b * state.shape[1] + r) * n_brains + brain[b, r]
+    _network_16(state, (b * state.shape[1] + r) * LANES, wpack, unit * LANES * LANES, bpack, unit * LANES, obs,
+                (b * obs.shape[1] + r) * obs.shape[2], TABLE)
+    return _remember_16(b, r, k, obs, rflag_signal, state, brain, prev, memo_obs, memo, by_net)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _step_pending_16(n, pending, obs, rflag, flag, state, brain, prev, memo_obs, memo, wpack, bpack, b, by_net):
+    """Step the n (1..3) networks listed in `pending` together, then remember each one's action."""
+    if n == 3:
+        _networks_16_3(state, wpack, bpack, obs, TABLE, pending)
+    elif n == 2:
+        _networks_16_2(state, wpack, bpack, obs, TABLE, pending)
+    else:
+        _networks_16_1(state, wpack, bpack, obs, TABLE, pending)
+    for q in range(n):
+        r = pending[q, 4]
+        _remember_16(b, r, pending[q, 5], obs, rflag[b, r, flag], state, brain, prev[r], memo_obs, memo, by_net)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def remembered_actions_16(b, obs, rflag, flag, n_brains, wpack, bpack, state, brain, prev, memo_obs, memo, pending,
+                          by_net=False):
+    """`remembered_action_16` for every robot of episode b at once: each robot's action in memo[r, 2].
+
+    The robots' networks are independent (each reads its own inputs, state and weights), so the ones the memo
+    cannot answer step together, up to three at a time (`_network_16_ir` overlaps their dependency chains):
+    the same operations per robot as one by one, so the same bits.  rflag[b, r, flag] is robot r's come-home
+    signal; prev (R, 9) float32 and pending (R, PENDING) int64 are scratch."""
+    n_robots = state.shape[1]
+    n = 0
+    for r in range(n_robots):
+        k = brain[b, r]
+        if _recall_16(b, r, obs, rflag[b, r, flag], n_brains, state, brain, prev[r], memo_obs, memo):
+            continue
+        unit = (b * n_robots + r) * n_brains + brain[b, r]
+        pending[n, 0] = (b * n_robots + r) * LANES
+        pending[n, 1] = unit * LANES * LANES
+        pending[n, 2] = unit * LANES
+        pending[n, 3] = (b * obs.shape[1] + r) * obs.shape[2]
+        pending[n, 4] = r
+        pending[n, 5] = k
+        n += 1
+        if n == 3:
+            _step_pending_16(n, pending, obs, rflag, flag, state, brain, prev, memo_obs, memo, wpack, bpack, b, by_net)
+            n = 0
+    if n > 0:
+        _step_pending_16(n, pending, obs, rflag, flag, state, brain, prev, memo_obs, memo, wpack, bpack, b, by_net)

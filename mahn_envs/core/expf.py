@@ -200,11 +200,16 @@ def expf_ir(builder: ir.IRBuilder, v: ir.Value, p_tab: ir.Value) -> ir.Value:
     kd = builder.fsub(kd, splat(vd, SHIFT))
     r = builder.call(fma, [splat(vd, INV_LN2_N), xd, builder.fsub(splat(vd, -0.0), kd)])
     idx = builder.and_(ki, splat(vi, 31))
-    tab = ir.Constant(vi, ir.Undefined)
-    for lane in range(width):
-        j = builder.extract_element(idx, ir.Constant(i32, lane))
-        tab = builder.insert_element(tab, builder.load(builder.gep(p_tab, [j], inbounds=True)),
-                                     ir.Constant(i32, lane))
+    # the table read of every lane as one gather (lowered to the CPU's gather instruction where it has one)
+    base = builder.insert_element(ir.Constant(vi, ir.Undefined), builder.ptrtoint(p_tab, i64), ir.Constant(i32, 0))
+    base = builder.shuffle_vector(base, ir.Constant(vi, ir.Undefined), ir.Constant(ir.VectorType(i32, width),
+                                                                                  [0] * width))
+    vp = ir.VectorType(p_tab.type, width)
+    mask = ir.VectorType(ir.IntType(1), width)
+    gather = cgutils.get_or_insert_function(builder.module, ir.FunctionType(vi, [vp, i32, mask, vi]),
+                                            f"llvm.masked.gather.v{width}i64.v{width}p0")
+    tab = builder.call(gather, [builder.inttoptr(builder.add(base, builder.shl(idx, splat(vi, 3))), vp),
+                                ir.Constant(i32, 8), ir.Constant(mask, [1] * width), ir.Constant(vi, ir.Undefined)])
     s = builder.bitcast(builder.add(tab, builder.shl(ki, splat(vi, 47))), vd)
     z = builder.call(fma, [r, splat(vd, C0), splat(vd, C1)])
     r2 = builder.fmul(r, r)

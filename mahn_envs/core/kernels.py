@@ -17,7 +17,7 @@ arrays one by one, a namedtuple more slowly, which the env's per-step calls woul
   work   (trig, at, others, cand)                       memos and scratch, one row per episode (below)
   nets   (wt_ih, wt_hh, wt_ho, b_h, b_o, hid, out, brain, by_net)  `transposed` controllers, their state and
                                                         decision rule (core.controller.DECISIONS)
-  brains (wpack, bpack, lanes, tmp, prev, memo_obs, memo)   packed networks, network scratch and memos
+  brains (wpack, bpack, lanes, tmp, prev, memo_obs, memo, pending)  packed networks, network scratch, memos
                                                         (`network_scratch`)
   scores (prev_fit, rewards, solved)                    the team fitness so far and its change in the last tick
   result (fitness, solved)                              whole episodes' outcome
@@ -36,7 +36,15 @@ from numba import njit, prange, types
 from numba.core import cgutils
 from numba.extending import intrinsic
 
-from .controller import LANES, OUT_LANE, is_size_9, pack_networks, remembered_action, remembered_action_16
+from .controller import (
+    LANES,
+    OUT_LANE,
+    PENDING,
+    is_size_9,
+    pack_networks,
+    remembered_action,
+    remembered_actions_16,
+)
 from .rng import CH_ACTION, uniform
 from .task import (
     E_TICK,
@@ -233,13 +241,13 @@ def step_all(actions, state, arena, task, work, scores):
 def network_scratch(wt_ih: np.ndarray, n_hidden: int) -> tuple:
     """The `brains` group of `run_controllers` for transposed weights wt_ih (B, R, K, n_in, n_hidden): packed
     networks (`pack_networks`, for the substrate's size) and per episode the network scratch and memos
-    (`remembered_action`).  (wpack, bpack, lanes, tmp, prev, memo_obs, memo)."""
+    (`remembered_action`, `remembered_actions_16`).  (wpack, bpack, lanes, tmp, prev, memo_obs, memo, pending)."""
     B, R, K, n_in = wt_ih.shape[:4]
     n = B if (n_in == 7 and n_hidden == 9) else 1
     return (np.zeros((n, R, K, LANES, LANES), dtype=np.float32), np.zeros((n, R, K, LANES), dtype=np.float32),
             np.zeros((n, R, LANES), dtype=np.float32), np.zeros((B, n_hidden + 3), dtype=np.float32),
-            np.zeros((B, n_hidden), dtype=np.float32), np.zeros((B, R, n_in), dtype=np.float32),
-            np.zeros((B, R, 3), dtype=np.int64))
+            np.zeros((B, R, n_hidden), dtype=np.float32), np.zeros((B, R, n_in), dtype=np.float32),
+            np.zeros((B, R, 3), dtype=np.int64), np.zeros((B, R, PENDING), dtype=np.int64))
 
 
 @njit(cache=True, error_model="numpy", parallel=True)
@@ -295,6 +303,7 @@ def run_controllers(state, arena, task, work, nets, brains, result, traj, record
     prev_all = brains[4]
     memo_obs_all = brains[5]
     memo_all = brains[6]
+    pending_all = brains[7]
     fitness = result[0]
     solved = result[1]
     n_ep = pose.shape[0]
@@ -310,6 +319,8 @@ def run_controllers(state, arena, task, work, nets, brains, result, traj, record
         cand = cand_all[b]
         tmp_h = tmp_all[b]
         prev = prev_all[b]
+        prev_0 = prev_all[b, 0]
+        pending = pending_all[b]
         memo_obs = memo_obs_all[b]
         memo = memo_all[b]
         trig = trig_all[b]
@@ -329,13 +340,15 @@ def run_controllers(state, arena, task, work, nets, brains, result, traj, record
                 traj[b, 0, r, 3] = -1.0  # no action before the first tick
         for tick in range(1, n_ticks + 1):
             est[b, E_TICK] = tick
+            if size_9:  # every robot's network first (they overlap), each robot's action in memo[r, 2]
+                remembered_actions_16(b, obs, rflag, F_SIGNAL, n_brains, wpack, bpack, lanes, brain, prev, memo_obs,
+                                      memo, pending, by_net)
             for r in range(n_robots):
                 if size_9:
-                    action = remembered_action_16(b, r, obs, rflag[b, r, F_SIGNAL], n_brains, wpack, bpack, lanes,
-                                                  brain, prev, memo_obs, memo, by_net)
+                    action = memo[r, 2]
                 else:
                     action = remembered_action(b, r, obs, rflag[b, r, F_SIGNAL], wt_ih, wt_hh, wt_ho, b_h, b_o,
-                                               hid, out, brain, tmp_h, prev, memo_obs, memo, by_net)
+                                               hid, out, brain, tmp_h, prev_0, memo_obs, memo, by_net)
                 decide_robot(b, r, action, tick, pose, raw, params, seed, key)
                 if record:
                     traj[b, tick, r, 3] = action

@@ -15,10 +15,12 @@ from mahn_envs.core import BatchSim, TaskParams, kernels
 from mahn_envs.core.controller import (
     LANES,
     OUT_LANE,
+    PENDING,
     _sigmoid,
     network_action,
     pack_networks,
     remembered_action_16,
+    remembered_actions_16,
     transposed,
     winner_take_all,
 )
@@ -145,6 +147,66 @@ def test_network_matches_reference_bitwise(brains, scale, fast_network):
     for a, b in zip(fast, ref):
         assert np.array_equal(a, b)
     assert len(np.unique(fast[0])) > 1  # the teams do act differently
+
+
+@njit(error_model="numpy")
+def _memo_networks(together, wpack, bpack, n_brains, obs_seq, sig_seq, by_net, acts, states):
+    """T ticks of every robot's `remembered_action_16`, robot by robot or (`together`) through
+    `remembered_actions_16`; actions and the packed states after every tick into acts, states."""
+    T, B, R = obs_seq.shape[0], obs_seq.shape[1], obs_seq.shape[2]
+    state = np.zeros((B, R, LANES), np.float32)
+    brain = np.zeros((B, R), np.int64)
+    rflag = np.zeros((B, R, 2), np.int64)
+    prev = np.zeros((R, 9), np.float32)
+    pending = np.zeros((R, PENDING), np.int64)
+    for b in range(B):
+        memo_obs = np.zeros((R, 7), np.float32)
+        memo = np.zeros((R, 3), np.int64)
+        for t in range(T):
+            obs = obs_seq[t]
+            for r in range(R):
+                rflag[b, r, 1] = sig_seq[t, b, r]
+            if together:
+                remembered_actions_16(b, obs, rflag, 1, n_brains, wpack, bpack, state, brain, prev, memo_obs, memo,
+                                      pending, by_net)
+                for r in range(R):
+                    acts[t, b, r] = memo[r, 2]
+            else:
+                for r in range(R):
+                    acts[t, b, r] = remembered_action_16(b, r, obs, rflag[b, r, 1], n_brains, wpack, bpack, state,
+                                                         brain, prev[0], memo_obs, memo, by_net)
+            states[t, b] = state[b]
+
+
+@pytest.mark.parametrize("n_robots", [3, 1, 5])  # 5: the robots step three, then two, at a time
+@pytest.mark.parametrize("by_net", [False, True])
+def test_all_robots_networks_match_one_by_one_bitwise(n_robots, by_net):
+    """The tick's networks stepped together (`remembered_actions_16`) give the bits of stepping them one by one,
+    through memo hits (inputs held still: some robots' steps answered by the memo, others computed) and brain
+    switches."""
+    teams = [random_team(s, n_brains=2, scale=1.0, n_robots=n_robots) for s in range(4)]
+    ctrl = type(teams[0])(*(np.stack([getattr(t, f) for t in teams]) for f in ("w_ih", "w_hh", "w_ho", "b_h", "b_o")))
+    wt = transposed(ctrl)
+    wpack = np.empty(wt[0].shape[:3] + (LANES, LANES), np.float32)
+    bpack = np.empty(wt[0].shape[:3] + (LANES,), np.float32)
+    pack_networks(*wt, wpack, bpack)
+    rng = np.random.default_rng(n_robots)
+    T, B = 160, len(teams)
+    obs_seq = rng.uniform(0.0, 1.0, (T, B, n_robots, 7)).astype(np.float32)
+    for t in range(1, T):  # long stretches of unchanged inputs for some robots, as at a post
+        still = rng.random((B, n_robots)) < 0.7
+        obs_seq[t][still] = obs_seq[t - 1][still]
+    obs_seq[..., 6] = 0.0
+    sig_seq = np.zeros((T, B, n_robots), np.int64)
+    sig_seq[80:] = 1
+    sig_seq[120:130, :, 0] = 0
+    got = [np.zeros((T, B, n_robots), np.int64), np.zeros((T, B, n_robots, LANES), np.float32)]
+    want = [np.zeros((T, B, n_robots), np.int64), np.zeros((T, B, n_robots, LANES), np.float32)]
+    _memo_networks(True, wpack, bpack, 2, obs_seq, sig_seq, by_net, *got)
+    _memo_networks(False, wpack, bpack, 2, obs_seq, sig_seq, by_net, *want)
+    assert np.array_equal(got[0], want[0])
+    assert np.array_equal(got[1].view(np.int32), want[1].view(np.int32))
+    assert len(np.unique(got[0])) > 1
 
 
 @pytest.mark.parametrize("n_rays", [6, 1, 8, 11])  # 1-8 rays run side by side in one vector, more one by one
