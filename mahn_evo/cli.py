@@ -188,6 +188,32 @@ def _generalize_parser(sub) -> None:
     p.add_argument("--json", action="store_true", help="print the ranking as JSON instead of a table")
 
 
+def _final_validation_parser(sub) -> None:
+    p = sub.add_parser("final-validation",
+                       help="score every team of a run's final population on fresh noisy episodes and archive the "
+                            "best noise-free solution (post-evaluation; mahn_evo.evaluation.final_population)")
+    p.add_argument("run_dirs", type=Path, nargs="+", metavar="run_dir",
+                   help="run folders of `mahn-evo train` or an experiment's runs/; each gets "
+                        "archive/solution_final_*.json and final_validation.json")
+    p.add_argument("--episodes", type=int, default=25,
+                   help="validation episodes per team (default 25; the generalisation noise, the run's seed, "
+                        "keys of their own)")
+
+
+def cmd_final_validation(args) -> int:
+    from .evaluation.final_population import validate_final_population
+
+    for run in args.run_dirs:
+        record = validate_final_population(run, episodes=args.episodes)
+        chosen = record["chosen"]
+        if chosen is None:
+            print(f"{run}: no team of generation {record['generation']} solves the noise-free task; nothing archived")
+        else:
+            print(f"{run}: {chosen['file']} (reading {chosen['reading']}): solved {chosen['solved_fraction']:.2f} "
+                  f"of {record['episodes']} validation episodes, mean fitness {chosen['mean_fitness']:.1f}")
+    return 0
+
+
 def _experiment_parser(sub) -> None:
     from .experiment.backends import BACKENDS
     from .experiment.plan import ExperimentPlan
@@ -501,6 +527,7 @@ def build_parser() -> argparse.ArgumentParser:
     _train_parser(sub)
     _eval_parser(sub)
     _generalize_parser(sub)
+    _final_validation_parser(sub)
     _experiment_parser(sub)
     _screen_parser(sub)
     try:
@@ -522,6 +549,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             return cmd_eval(args)
         if args.command == "generalize":
             return cmd_generalize(args)
+        if args.command == "final-validation":
+            return cmd_final_validation(args)
         if args.command == "experiment":
             return cmd_experiment(args)
         if args.command == "screen":

@@ -1,0 +1,109 @@
+"""Final validation: every team of a run's last population scored on fresh noisy episodes, the best archived.
+
+Why: the archive keeps teams by what one generation's few episodes said about them (a new record, or with
+`fitness_memory` a team that solved every episode of 3 generations), and a robust phase can end with its most
+reliable teams unarchived: a team that appeared late, or failed one episode of its three.  On the lifetime
+hardening of seeds 1-15 (docs/results/experiment_lifetime_seeds_1_15/) no robust-phase team was archived at all,
+while the final populations held teams solving up to 96 % of the 25 generalisation episodes.  Scoring the whole
+final population (every reading, with `--symmetry best`) on its own validation episodes and archiving the best
+noise-free solution among them is the standard post-evaluation of evolutionary robotics: cheap (a few seconds
+per run) and blind to the report's test episodes.
+
+The validation episodes use the generalisation noise with the run's seed and keys from VALIDATION_KEY on: never a
+training episode's key (generation * K + e) nor the generalisation test's (0, 1, ... with seed 0).  The chosen
+team must solve the noise-free task on the run's map (it is archived as a solution); among those, the most
+episodes solved, then the best mean fitness, then the lowest population index and reading wins.
+"""
+from __future__ import annotations
+
+from dataclasses import replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from mahn_envs.core import BatchSim
+from mahn_envs.policies.team_controllers import TeamControllers
+
+from ..hyperneat.substrate import READINGS, team_reading
+from ..hyperneat.team_evaluator import TeamEvaluator
+from ..neat.population import Population
+from ..storage.files import atomic_write_json, read_checked_json, read_versioned_json, versioned
+from ..training.champion import Champion
+from ..training.config import EvolutionConfig
+from .task_setup import task_params
+
+#: the first validation episode's key (training keys are generation * K + e, far below)
+VALIDATION_KEY = 1 << 40
+KIND = "final_validation"
+
+
+def final_population(run_dir: str | Path) -> tuple[EvolutionConfig, Population]:
+    """A run folder's configuration and the population of its last checkpoint (the generation it would play
+    next: the last generation's elites and their offspring)."""
+    run = Path(run_dir)
+    if not (run / "checkpoint.json").is_file():
+        raise ValueError(f"run folder {str(run)!r} has no checkpoint.json to take the final population from")
+    config = EvolutionConfig.from_saved(read_versioned_json(run / "config.json", "config"))
+    data = read_checked_json(run / "checkpoint.json", "checkpoint")
+    try:
+        population = Population.from_dict(data["population"])
+    except (KeyError, TypeError, ValueError) as exc:
+        raise ValueError(f"checkpoint file {str(run / 'checkpoint.json')!r} is malformed: {exc}") from exc
+    return config, population
+
+
+def _scores(teams: TeamControllers, map_name: str, params, seed: int, keys: list[int]
+            ) -> tuple[np.ndarray, np.ndarray]:
+    """Fitness and solved (n, len(keys)) of every team on the keyed episodes."""
+    n, k = teams.w_ih.shape[0], len(keys)
+    sim = BatchSim(map_name, n * k, params)
+    res = sim.run_controllers(teams.map_arrays(lambda a: np.repeat(a, k, axis=0)), seed=seed,
+                              episode_keys=np.tile(np.asarray(keys, dtype=np.int64), n))
+    return res.fitness.reshape(n, k), res.solved.reshape(n, k)
+
+
+def validate_final_population(run_dir: str | Path, episodes: int = 25, write: bool = True) -> dict[str, Any]:
+    """Score every team of the run's final population (every reading with symmetry "best") on `episodes` noisy
+    validation episodes; with `write`, archive the best noise-free solution as
+    archive/solution_final_gGGGGG_iIIII.json and record the ranking in final_validation.json.  Returns that
+    record ("chosen" is None when no team of the population solves the noise-free task)."""
+    if isinstance(episodes, bool) or not isinstance(episodes, int) or episodes < 1:
+        raise ValueError(f"episodes must be a positive integer, got {episodes!r}")
+    run = Path(run_dir)
+    config, population = final_population(run)
+    genomes = population.genomes
+    controllers = TeamEvaluator(config.evaluation).decode(genomes)
+    readings = READINGS if config.symmetry == "best" else ("none",)
+    reflex = config.task.reflex_arc
+    clean = replace(config.task.without_noise(), reflex_arc=reflex)
+    noisy = replace(task_params("generalization"), reflex_arc=reflex)
+    keys = [VALIDATION_KEY + i for i in range(episodes)]
+    rows: list[dict[str, Any]] = []
+    teams: dict[tuple[str, int], TeamControllers] = {}
+    for reading in readings:
+        batch = team_reading(controllers, reading)
+        clean_fit, clean_solved = _scores(batch, config.map, clean, config.seed, [0])
+        fit, solved = _scores(batch, config.map, noisy, config.seed, keys)
+        for i in range(len(genomes)):
+            teams[(reading, i)] = batch.team(i)
+            rows.append({"index": i, "reading": reading, "noise_free_fitness": float(clean_fit[i, 0]),
+                         "noise_free_solved": bool(clean_solved[i, 0]),
+                         "solved_fraction": float(solved[i].mean()), "mean_fitness": float(fit[i].mean())})
+    rows.sort(key=lambda r: (not r["noise_free_solved"], -r["solved_fraction"], -r["mean_fitness"], r["index"],
+                             readings.index(r["reading"])))
+    best = rows[0] if rows and rows[0]["noise_free_solved"] else None
+    record: dict[str, Any] = {"generation": population.generation, "episodes": episodes, "seed": config.seed,
+                              "first_key": VALIDATION_KEY, "noise": "generalization", "teams": len(rows),
+                              "chosen": None, "top": rows[:10]}
+    if best is not None:
+        gen, i = population.generation, best["index"]
+        name = f"solution_final_g{gen:05d}_i{i:04d}.json"
+        record["chosen"] = {**best, "file": f"archive/{name}"}
+        if write:
+            Champion(mode=config.mode, fitness=best["mean_fitness"], solved=True, generation=gen,
+                     genome=genomes[i], controllers=teams[(best["reading"], i)], seed=config.seed, map=config.map,
+                     reflex_arc=reflex).save(run / "archive" / name)
+    if write:
+        atomic_write_json(run / "final_validation.json", versioned(KIND, record))
+    return record
