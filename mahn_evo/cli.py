@@ -242,6 +242,10 @@ def _experiment_parser(sub) -> None:
                    help=f"noisy episodes of the generalisation test (default {d.general_episodes})")
     p.add_argument("--transfer-episodes", type=int,
                    help=f"noisy episodes per transfer test (default {d.transfer_episodes})")
+    p.add_argument("--final-validation", type=int, metavar="N",
+                   help="before the report, score every team of each finished run's final population on N "
+                        "validation episodes and add its best noise-free solution to the run's archive (`mahn-evo "
+                        f"final-validation`; default {d.final_validation}: none)")
     p.add_argument("--max-cycles", type=int, default=d.max_cycles, help=argparse.SUPPRESS)
     p.add_argument("--signal-tick", type=int, default=d.signal_tick, help=argparse.SUPPRESS)
     p.add_argument("--config", type=Path, help="TOML or JSON file whose `neat` table overrides NEAT settings")
@@ -253,8 +257,9 @@ def _experiment_parser(sub) -> None:
     p.add_argument("--no-analysis", action="store_true", help="only run the runs")
     p.add_argument("--report-only", action="store_true",
                    help="start no runs: write the results of the runs finished so far (e.g. while the experiment "
-                        "runs in another shell), with the folder's saved plan; --top, --general-episodes and "
-                        "--transfer-episodes, when given, replace the saved ones (experiment.json is updated)")
+                        "runs in another shell), with the folder's saved plan; --top, --general-episodes, "
+                        "--transfer-episodes and --final-validation, when given, replace the saved ones "
+                        "(experiment.json is updated)")
 
 
 def _screen_parser(sub) -> None:
@@ -317,7 +322,8 @@ def experiment_plan(args: argparse.Namespace) -> ExperimentPlan:
 
 def _analysis_options(args) -> dict[str, Any]:
     """The report's options as given on the command line (None: not given)."""
-    return {"top": args.top, "general_episodes": args.general_episodes, "transfer_episodes": args.transfer_episodes}
+    return {"top": args.top, "general_episodes": args.general_episodes, "transfer_episodes": args.transfer_episodes,
+            "final_validation": args.final_validation}
 
 
 def cmd_experiment(args) -> int:

@@ -30,7 +30,7 @@ EVOLUTION_FIELDS = ("init", "evaluate_modules", "cppn_activation", "decision", "
                     "restart_every", "map", "after_solved")
 
 #: the report's options: they choose what is tested after the runs, so they may change in an experiment's folder
-REPORT_OPTIONS = ("top", "general_episodes", "transfer_episodes")
+REPORT_OPTIONS = ("top", "general_episodes", "transfer_episodes", "final_validation")
 
 
 @dataclass(frozen=True)
@@ -70,6 +70,9 @@ class ExperimentPlan:
     top: int = 5  # most general solutions (from distinct runs) per mode that get the transfer tests
     general_episodes: int = 25  # noisy episodes of the generalisation test
     transfer_episodes: int = 10  # noisy episodes per transfer test
+    #: validation episodes of `mahn-evo final-validation` for every finished run before the report (0: none): the
+    #: best noise-free solution of each final population joins the run's archive (evaluation.final_population)
+    final_validation: int = 0
     replays: int = 1  # most general solutions per mode filmed in each protocol and map (GIFs)
     reflex_arc: bool = False  # the arcing reflex (TaskParams.reflex_arc), beyond the paper
     reflex_arc_from: str = "start"  # or "robust_phase" (see EvolutionConfig.reflex_arc_from)
@@ -92,7 +95,7 @@ class ExperimentPlan:
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, int) or v < 1:
                 raise ValueError(f"{name} must be a positive integer, got {v!r}")
-        for name in ("seed", "after_solved", "replays"):
+        for name in ("seed", "after_solved", "replays", "final_validation"):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, int) or v < 0:
                 raise ValueError(f"{name} must be a non-negative integer, got {v!r}")

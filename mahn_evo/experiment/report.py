@@ -25,6 +25,7 @@ from .transfer import (
     robust_on_every_map,
     trajectories,
     transfer_tests,
+    validate_final_populations,
 )
 
 MODE_COLOURS = {"situational": "#0f9d58", "standard": "#4285f4"}
@@ -43,6 +44,7 @@ def write_results(plan: ExperimentPlan, out: str | Path, runs_wall_seconds: floa
     runs = load_runs(plan, out)
     table = mode_table(plan, runs)
     test = fisher(table, plan.modes)
+    validate_final_populations(plan, runs, log)
     general: dict[str, list[dict[str, Any]]] = {mode: most_general(plan, runs, mode, log) for mode in plan.modes}
     chosen = [e for mode in plan.modes for e in general[mode]]
     transfers = map_in_processes(_transfer_file, [(str(out / e["file"]), plan.to_dict()) for e in chosen], workers)
@@ -174,6 +176,9 @@ def markdown(results: dict[str, Any]) -> str:
     lines += ["", "## Most general solutions and transfer", "",
               "Per run, the archived solution with the best score over "
               f"{plan['general_episodes']} noisy episodes on `{plan['map']}`; the best of those from distinct runs. "
+              + (f"Each run's archive also holds the best noise-free solution of its final population on "
+                 f"{plan['final_validation']} validation episodes of its own (`mahn-evo final-validation`). "
+                 if plan.get("final_validation") else "") +
               "`training`: all robots called at tick 690 (team fitness, solved). `sequential`: the real-world "
               "protocol in the pymunk engine (robots called home one at a time, sent back out); success = every "
               f"robot reaches its post, returns and goes back out. Noisy columns: {plan['transfer_episodes']} "

@@ -17,10 +17,13 @@ from mahn_envs.core import BatchSim
 from mahn_envs.policies.controller_policy import ControllerPolicy
 
 from ..evaluation.eval_champion import evaluate_champion
+from ..evaluation.final_population import KIND as FINAL_KIND
+from ..evaluation.final_population import validate_final_population
 from ..evaluation.generalize import generalize
 from ..evaluation.margins import decision_margins
 from ..evaluation.protocols import sequential, sequential_episode
 from ..evaluation.task_setup import task_params
+from ..storage.files import read_versioned_json
 from ..training.champion import Champion
 from .plan import ExperimentPlan
 from .table import RunRecord
@@ -36,6 +39,28 @@ def robust_on_every_map(transfer: dict[str, Any]) -> bool:
     in at least ROBUST_SUCCESS of the episodes: the test a team must pass to be trusted on real robots, since one
     noise-free episode per map (the paper's count) says nothing about a decision that noise flips."""
     return all(transfer[m]["sequential_noisy"]["success_fraction"] >= ROBUST_SUCCESS - 1e-9 for m in TRANSFER_MAPS)
+
+
+def validate_final_populations(plan: ExperimentPlan, runs: list[RunRecord], log: Callable[[str], None] = print
+                               ) -> None:
+    """With plan.final_validation: `validate_final_population` for every finished run that has not been validated
+    with that many episodes yet (its final_validation.json says), so its archive holds its final population's
+    best noise-free solution before the generalisation test ranks the archive."""
+    if not plan.final_validation:
+        return
+    done = 0
+    for r in runs:
+        record = r.folder / "final_validation.json"
+        if not r.finished or not (r.folder / "checkpoint.json").exists():
+            continue
+        if record.exists():
+            saved = read_versioned_json(record, FINAL_KIND)
+            if (saved.get("episodes"), saved.get("generation")) == (plan.final_validation, r.generations):
+                continue  # validated with these episodes since the run last changed (a longer run validates again)
+        validate_final_population(r.folder, episodes=plan.final_validation)
+        done += 1
+    if done:
+        log(f"final validation ({plan.final_validation} episodes) of {done} run(s)")
 
 
 def most_general(plan: ExperimentPlan, runs: list[RunRecord], mode: str,

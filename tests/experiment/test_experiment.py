@@ -133,6 +133,17 @@ def test_small_experiment_end_to_end_and_report_only(tmp_path):
     for mode in plan.modes:
         assert [e["transfer"] for e in serial["most_general"][mode]] == \
             [e["transfer"] for e in results["most_general"][mode]]
+    # --final-validation N validates every finished run's final population once (again only when N or the run
+    # changes) before the report ranks the archives
+    assert not list((out / "runs").glob("*/final_validation.json"))
+    assert main(["experiment", "--report-only", "--final-validation", "2", "--out", str(out)]) == 0
+    assert ExperimentPlan.load(out) == replace(plan, final_validation=2)
+    records = sorted((out / "runs").glob("*/final_validation.json"))
+    assert len(records) == 4 and all(json.loads(p.read_text())["episodes"] == 2 for p in records)
+    assert "validation episodes of its own" in (out / "results.md").read_text()
+    stamps = [p.stat().st_mtime_ns for p in records]
+    assert main(["experiment", "--report-only", "--out", str(out)]) == 0
+    assert stamps == [p.stat().st_mtime_ns for p in records]
 
 
 def test_interrupted_experiment_resumes_bit_identically(tmp_path):
