@@ -419,7 +419,6 @@ def _networks_16_of(n_units: int):
 
 #: columns of a pending network (`remembered_actions_16`): state_at, w_at, b_at, obs_at, robot, brain before
 PENDING = 6
-_networks_16_1 = _networks_16_of(1)
 _networks_16_2 = _networks_16_of(2)
 _networks_16_3 = _networks_16_of(3)
 
@@ -486,7 +485,7 @@ def _step_pending_16(n, pending, obs, rflag, flag, state, brain, prev, memo_obs,
     elif n == 2:
         _networks_16_2(state, wpack, bpack, obs, TABLE, pending)
     else:
-        _networks_16_1(state, wpack, bpack, obs, TABLE, pending)
+        _network_16(state, pending[0, 0], wpack, pending[0, 1], bpack, pending[0, 2], obs, pending[0, 3], TABLE)
     for q in range(n):
         r = pending[q, 4]
         _remember_16(b, r, pending[q, 5], obs, rflag[b, r, flag], state, brain, prev[r], memo_obs, memo, by_net)

@@ -20,17 +20,13 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
-from mahn_envs.core import BatchSim
-from mahn_envs.policies.team_controllers import TeamControllers
-
 from ..hyperneat.substrate import READINGS, team_reading
 from ..hyperneat.team_evaluator import TeamEvaluator
 from ..neat.population import Population
 from ..storage.files import atomic_write_json, read_checked_json, read_versioned_json, versioned
 from ..training.champion import Champion
 from ..training.config import EvolutionConfig
+from .generalize import keyed_episodes
 from .task_setup import task_params
 
 #: the first validation episode's key (training keys are generation * K + e, far below)
@@ -53,16 +49,6 @@ def final_population(run_dir: str | Path) -> tuple[EvolutionConfig, Population]:
     return config, population
 
 
-def _scores(teams: TeamControllers, map_name: str, params, seed: int, keys: list[int]
-            ) -> tuple[np.ndarray, np.ndarray]:
-    """Fitness and solved (n, len(keys)) of every team on the keyed episodes."""
-    n, k = teams.w_ih.shape[0], len(keys)
-    sim = BatchSim(map_name, n * k, params)
-    res = sim.run_controllers(teams.map_arrays(lambda a: np.repeat(a, k, axis=0)), seed=seed,
-                              episode_keys=np.tile(np.asarray(keys, dtype=np.int64), n))
-    return res.fitness.reshape(n, k), res.solved.reshape(n, k)
-
-
 def validate_final_population(run_dir: str | Path, episodes: int = 25, write: bool = True) -> dict[str, Any]:
     """Score every team of the run's final population (every reading with symmetry "best") on `episodes` noisy
     validation episodes; with `write`, archive the best noise-free solution as
@@ -80,13 +66,11 @@ def validate_final_population(run_dir: str | Path, episodes: int = 25, write: bo
     noisy = replace(task_params("generalization"), reflex_arc=reflex)
     keys = [VALIDATION_KEY + i for i in range(episodes)]
     rows: list[dict[str, Any]] = []
-    teams: dict[tuple[str, int], TeamControllers] = {}
     for reading in readings:
         batch = team_reading(controllers, reading)
-        clean_fit, clean_solved = _scores(batch, config.map, clean, config.seed, [0])
-        fit, solved = _scores(batch, config.map, noisy, config.seed, keys)
+        clean_fit, clean_solved = keyed_episodes(batch, config.map, clean, config.seed, [0])
+        fit, solved = keyed_episodes(batch, config.map, noisy, config.seed, keys)
         for i in range(len(genomes)):
-            teams[(reading, i)] = batch.team(i)
             rows.append({"index": i, "reading": reading, "noise_free_fitness": float(clean_fit[i, 0]),
                          "noise_free_solved": bool(clean_solved[i, 0]),
                          "solved_fraction": float(solved[i].mean()), "mean_fitness": float(fit[i].mean())})
@@ -102,7 +86,8 @@ def validate_final_population(run_dir: str | Path, episodes: int = 25, write: bo
         record["chosen"] = {**best, "file": f"archive/{name}"}
         if write:
             Champion(mode=config.mode, fitness=best["mean_fitness"], solved=True, generation=gen,
-                     genome=genomes[i], controllers=teams[(best["reading"], i)], seed=config.seed, map=config.map,
+                     genome=genomes[i], controllers=team_reading(controllers, best["reading"]).team(i),
+                     seed=config.seed, map=config.map,
                      reflex_arc=reflex).save(run / "archive" / name)
     if write:
         atomic_write_json(run / "final_validation.json", versioned(KIND, record))

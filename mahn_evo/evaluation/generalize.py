@@ -7,6 +7,7 @@ solution of a run is the top row.
 """
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -33,6 +34,17 @@ def solutions_of(run_dir: str | Path) -> list[Path]:
     return files
 
 
+def keyed_episodes(teams: TeamControllers, map: str, params: TaskParams, seed: int, keys: Sequence[int]
+                   ) -> tuple[np.ndarray, np.ndarray]:
+    """Fitness and solved, each (teams, len(keys)), of every team on the same keyed episodes (common random
+    numbers: team i's episode j is the same noise draw for every team), in one batch."""
+    n, k = teams.w_ih.shape[0], len(keys)
+    sim = BatchSim(map, n * k, params)
+    res = sim.run_controllers(teams.map_arrays(lambda a: np.repeat(a, k, axis=0)), seed=seed,
+                              episode_keys=np.tile(np.asarray(keys, dtype=np.int64), n))
+    return res.fitness.reshape(n, k), res.solved.reshape(n, k)
+
+
 def generalize(run_dir: str | Path, episodes: int = 25, map: str = "plus", params: TaskParams | None = None,
                seed: int = 0, write: bool = True) -> list[dict[str, Any]]:
     """Rank a run's solutions by mean fitness under noise; writes generalization.json/.csv in the run folder."""
@@ -49,12 +61,7 @@ def generalize(run_dir: str | Path, episodes: int = 25, map: str = "plus", param
     for arc in sorted({c.reflex_arc for c in champs}):
         idx = [i for i, c in enumerate(champs) if c.reflex_arc == arc]
         teams = TeamControllers.stack([champs[i].controllers for i in idx])
-        sim = BatchSim(map, len(idx) * episodes, champs[idx[0]].task(params))
-        batch = teams.map_arrays(lambda a: np.repeat(a, episodes, axis=0))
-        keys = np.tile(np.arange(episodes), len(idx)).tolist()
-        res = sim.run_controllers(batch, seed=seed, episode_keys=keys)
-        fit[idx] = res.fitness.reshape(len(idx), episodes)
-        solved[idx] = res.solved.reshape(len(idx), episodes)
+        fit[idx], solved[idx] = keyed_episodes(teams, map, champs[idx[0]].task(params), seed, range(episodes))
     rows: list[dict[str, Any]] = []
     for i, (f, c) in enumerate(zip(files, champs)):
         rows.append({"file": f.name, "generation": c.generation, "reflex_arc": c.reflex_arc,

@@ -17,8 +17,8 @@ from pathlib import Path
 
 import numpy as np
 
-from mahn_envs.core import BatchSim
 from mahn_envs.policies.team_controllers import TeamControllers
+from mahn_evo.evaluation.generalize import keyed_episodes
 from mahn_evo.evaluation.task_setup import task_params
 from mahn_evo.experiment.plan import ExperimentPlan
 from mahn_evo.experiment.transfer import robust_on_every_map, transfer_tests
@@ -39,9 +39,9 @@ def champion(path: Path) -> Champion:
 
 
 def general(champ: Champion) -> dict:
-    sim = BatchSim("plus", GENERAL_EPISODES, champ.task(task_params("generalization")))
-    res = sim.run_controllers(champ.controllers, seed=0, episode_keys=list(range(GENERAL_EPISODES)))
-    return {"solved_fraction": float(np.mean(res.solved)), "mean_fitness": float(np.mean(res.fitness))}
+    fit, solved = keyed_episodes(champ.controllers.as_batch(), "plus", champ.task(task_params("generalization")), 0,
+                                 range(GENERAL_EPISODES))
+    return {"solved_fraction": float(np.mean(solved)), "mean_fitness": float(np.mean(fit))}
 
 
 def main() -> None:
