@@ -198,19 +198,29 @@ def _final_validation_parser(sub) -> None:
     p.add_argument("--episodes", type=int, default=25,
                    help="validation episodes per team (default 25; the generalisation noise, the run's seed, "
                         "keys of their own)")
+    p.add_argument("--sequential", type=int, default=0, metavar="T",
+                   help="play the T best teams of that ranking through the sequential protocol under the same "
+                        "noise on the run's map and archive the one that succeeds most often (default 0: choose "
+                        "by the training protocol alone)")
+    p.add_argument("--sequential-episodes", type=int, default=10,
+                   help="sequential-protocol episodes per team with --sequential (default %(default)s; seeds from "
+                        "2^30, never the transfer test's)")
 
 
 def cmd_final_validation(args) -> int:
     from .evaluation.final_population import validate_final_population
 
     for run in args.run_dirs:
-        record = validate_final_population(run, episodes=args.episodes)
+        record = validate_final_population(run, episodes=args.episodes, sequential_teams=args.sequential,
+                                           sequential_episodes=args.sequential_episodes)
         chosen = record["chosen"]
         if chosen is None:
             print(f"{run}: no team of generation {record['generation']} solves the noise-free task; nothing archived")
         else:
+            seq = (f"; {chosen['sequential_successes']} of {record['sequential']['episodes']} sequential episodes"
+                   if "sequential" in record else "")
             print(f"{run}: {chosen['file']} (reading {chosen['reading']}): solved {chosen['solved_fraction']:.2f} "
-                  f"of {record['episodes']} validation episodes, mean fitness {chosen['mean_fitness']:.1f}")
+                  f"of {record['episodes']} validation episodes, mean fitness {chosen['mean_fitness']:.1f}{seq}")
     return 0
 
 
@@ -246,6 +256,10 @@ def _experiment_parser(sub) -> None:
                    help="before the report, score every team of each finished run's final population on N "
                         "validation episodes and add its best noise-free solution to the run's archive (`mahn-evo "
                         f"final-validation`; default {d.final_validation}: none)")
+    p.add_argument("--final-sequential", type=int, metavar="T",
+                   help="with --final-validation: its T best teams also play 10 noisy episodes of the sequential "
+                        "protocol on the training map and the most successful is archived (`mahn-evo "
+                        f"final-validation --sequential T`; default {d.final_sequential}: none)")
     p.add_argument("--max-cycles", type=int, default=d.max_cycles, help=argparse.SUPPRESS)
     p.add_argument("--signal-tick", type=int, default=d.signal_tick, help=argparse.SUPPRESS)
     p.add_argument("--config", type=Path, help="TOML or JSON file whose `neat` table overrides NEAT settings")
@@ -258,8 +272,8 @@ def _experiment_parser(sub) -> None:
     p.add_argument("--report-only", action="store_true",
                    help="start no runs: write the results of the runs finished so far (e.g. while the experiment "
                         "runs in another shell), with the folder's saved plan; --top, --general-episodes, "
-                        "--transfer-episodes and --final-validation, when given, replace the saved ones "
-                        "(experiment.json is updated)")
+                        "--transfer-episodes, --final-validation and --final-sequential, when given, replace the "
+                        "saved ones (experiment.json is updated)")
 
 
 def _screen_parser(sub) -> None:
@@ -314,7 +328,9 @@ def experiment_plan(args: argparse.Namespace) -> ExperimentPlan:
     fields = {k: getattr(d, k) for k in chosen} | from_base | {k: v for k, v in chosen.items() if v is not None}
     return ExperimentPlan(modes=tuple(args.modes), runs=args.runs, seed=args.seed, generations=args.generations,
                           population=args.pop, map=args.map, after_solved=args.after_solved,
-                          **{k: d.to_dict()[k] if v is None else v for k, v in _analysis_options(args).items()},
+                          # with --report-only the given report options replace the saved plan's (run_experiment)
+                          **{k: d.to_dict()[k] if v is None or args.report_only else v
+                             for k, v in _analysis_options(args).items()},
                           max_cycles=args.max_cycles, signal_tick=args.signal_tick, neat=neat,
                           reflex_arc=base.task.reflex_arc if args.reflex_arc is None else args.reflex_arc,
                           reflex_arc_from=args.reflex_arc_from or base.reflex_arc_from, **fields)
@@ -323,7 +339,7 @@ def experiment_plan(args: argparse.Namespace) -> ExperimentPlan:
 def _analysis_options(args) -> dict[str, Any]:
     """The report's options as given on the command line (None: not given)."""
     return {"top": args.top, "general_episodes": args.general_episodes, "transfer_episodes": args.transfer_episodes,
-            "final_validation": args.final_validation}
+            "final_validation": args.final_validation, "final_sequential": args.final_sequential}
 
 
 def cmd_experiment(args) -> int:
@@ -473,14 +489,13 @@ def cmd_eval(args) -> int:
                          heading_noise=args.heading_noise, start_jitter_xy=args.start_jitter_xy,
                          start_jitter_heading=args.start_jitter_heading)
     if args.protocol == "sequential":
-        from mahn_envs.policies.controller_policy import ControllerPolicy
-
+        from .evaluation.eval_champion import champion_policy
         from .evaluation.protocols import sequential, sequential_summary
         from .training.champion import Champion
 
         champ = Champion.load(args.champion)
         params = champ.task(params)
-        policy = ControllerPolicy(champ.controllers, [f"robot_{k}" for k in range(champ.controllers.n_robots)])
+        policy = champion_policy(champ)
         result = sequential(policy, map=args.map, params=params, episodes=args.episodes, seed=args.seed)
         if args.video or args.plot:  # the first episode again, filmed / recorded
             from .evaluation.protocols import sequential_episode

@@ -17,6 +17,12 @@ from ..training.champion import Champion
 from .task_setup import task_env
 
 
+def champion_policy(champ: Champion) -> ControllerPolicy:
+    """The champion's team as a protocol policy for the env's agents robot_0, robot_1, ... (the sequential
+    protocol and deploy drive teams through this, the training protocol through the batch core)."""
+    return ControllerPolicy(champ.controllers, [f"robot_{k}" for k in range(champ.controllers.n_robots)])
+
+
 def evaluate_champion(champion: Champion | str | Path, map: str = "plus", engine: str = "kinematic",
                       episodes: int = 1, params: TaskParams | None = None, seed: int = 0,
                       video: str | Path | None = None, video_every: int = 4, video_scale: float = 1.0

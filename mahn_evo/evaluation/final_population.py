@@ -26,11 +26,15 @@ from ..neat.population import Population
 from ..storage.files import atomic_write_json, read_checked_json, read_versioned_json, versioned
 from ..training.champion import Champion
 from ..training.config import EvolutionConfig
+from .eval_champion import champion_policy
 from .generalize import keyed_episodes
+from .protocols import sequential
 from .task_setup import task_params
 
 #: the first validation episode's key (training keys are generation * K + e, far below)
 VALIDATION_KEY = 1 << 40
+#: the first seed of the sequential stage's episodes (the transfer test's are the experiment's seed + 0, 1, ...)
+SEQUENTIAL_SEED = 1 << 30
 KIND = "final_validation"
 
 
@@ -49,13 +53,19 @@ def final_population(run_dir: str | Path) -> tuple[EvolutionConfig, Population]:
     return config, population
 
 
-def validate_final_population(run_dir: str | Path, episodes: int = 25, write: bool = True) -> dict[str, Any]:
+def validate_final_population(run_dir: str | Path, episodes: int = 25, sequential_teams: int = 0,
+                              sequential_episodes: int = 10, write: bool = True) -> dict[str, Any]:
     """Score every team of the run's final population (every reading with symmetry "best") on `episodes` noisy
-    validation episodes; with `write`, archive the best noise-free solution as
-    archive/solution_final_gGGGGG_iIIII.json and record the ranking in final_validation.json.  Returns that
-    record ("chosen" is None when no team of the population solves the noise-free task)."""
-    if isinstance(episodes, bool) or not isinstance(episodes, int) or episodes < 1:
-        raise ValueError(f"episodes must be a positive integer, got {episodes!r}")
+    validation episodes; with `sequential_teams` T > 0, play the T best noise-free solutions of that ranking
+    through `sequential_episodes` noisy episodes of the sequential protocol on the run's map and choose by those.
+    With `write`, archive the chosen team as archive/solution_final_gGGGGG_iIIII.json and record the ranking in
+    final_validation.json.  Returns that record ("chosen" is None when no team of the population solves the
+    noise-free task)."""
+    for name, v in (("episodes", episodes), ("sequential_episodes", sequential_episodes)):
+        if isinstance(v, bool) or not isinstance(v, int) or v < 1:
+            raise ValueError(f"{name} must be a positive integer, got {v!r}")
+    if isinstance(sequential_teams, bool) or not isinstance(sequential_teams, int) or sequential_teams < 0:
+        raise ValueError(f"sequential_teams must be a non-negative integer, got {sequential_teams!r}")
     run = Path(run_dir)
     config, population = final_population(run)
     genomes = population.genomes
@@ -76,19 +86,35 @@ def validate_final_population(run_dir: str | Path, episodes: int = 25, write: bo
                          "solved_fraction": float(solved[i].mean()), "mean_fitness": float(fit[i].mean())})
     rows.sort(key=lambda r: (not r["noise_free_solved"], -r["solved_fraction"], -r["mean_fitness"], r["index"],
                              readings.index(r["reading"])))
-    best = rows[0] if rows and rows[0]["noise_free_solved"] else None
-    record: dict[str, Any] = {"generation": population.generation, "episodes": episodes, "seed": config.seed,
+    gen = population.generation
+
+    def champion(row: dict[str, Any]) -> Champion:
+        return Champion(mode=config.mode, fitness=row["mean_fitness"], solved=True, generation=gen,
+                        genome=genomes[row["index"]], controllers=team_reading(controllers, row["reading"]).team(
+                            row["index"]), seed=config.seed, map=config.map, reflex_arc=reflex)
+
+    record: dict[str, Any] = {"generation": gen, "episodes": episodes, "seed": config.seed,
                               "first_key": VALIDATION_KEY, "noise": "generalization", "teams": len(rows),
                               "chosen": None, "top": rows[:10]}
+    candidates = [r for r in rows if r["noise_free_solved"]]
+    if sequential_teams:
+        candidates = candidates[:sequential_teams]
+        for row in candidates:
+            champ = champion(row)
+            result = sequential(champion_policy(champ), map=config.map, params=champ.task(task_params(
+                "generalization")), episodes=sequential_episodes, seed=SEQUENTIAL_SEED)
+            row["sequential_successes"] = int(sum(result["solved"]))
+            row["sequential_stages"] = float(sum(result["fitness"]) / sequential_episodes)
+        candidates.sort(key=lambda r: (-r["sequential_successes"], -r["sequential_stages"]))  # stable: then rows
+        record["sequential"] = {"teams": sequential_teams, "episodes": sequential_episodes,
+                                "first_seed": SEQUENTIAL_SEED, "map": config.map, "noise": "generalization",
+                                "ranking": candidates}
+    best = candidates[0] if candidates else None
     if best is not None:
-        gen, i = population.generation, best["index"]
-        name = f"solution_final_g{gen:05d}_i{i:04d}.json"
+        name = f"solution_final_g{gen:05d}_i{best['index']:04d}.json"
         record["chosen"] = {**best, "file": f"archive/{name}"}
         if write:
-            Champion(mode=config.mode, fitness=best["mean_fitness"], solved=True, generation=gen,
-                     genome=genomes[i], controllers=team_reading(controllers, best["reading"]).team(i),
-                     seed=config.seed, map=config.map,
-                     reflex_arc=reflex).save(run / "archive" / name)
+            champion(best).save(run / "archive" / name)
     if write:
         atomic_write_json(run / "final_validation.json", versioned(KIND, record))
     return record

@@ -30,7 +30,7 @@ EVOLUTION_FIELDS = ("init", "evaluate_modules", "cppn_activation", "decision", "
                     "restart_every", "map", "after_solved")
 
 #: the report's options: they choose what is tested after the runs, so they may change in an experiment's folder
-REPORT_OPTIONS = ("top", "general_episodes", "transfer_episodes", "final_validation")
+REPORT_OPTIONS = ("top", "general_episodes", "transfer_episodes", "final_validation", "final_sequential")
 
 
 @dataclass(frozen=True)
@@ -73,6 +73,9 @@ class ExperimentPlan:
     #: validation episodes of `mahn-evo final-validation` for every finished run before the report (0: none): the
     #: best noise-free solution of each final population joins the run's archive (evaluation.final_population)
     final_validation: int = 0
+    #: with final_validation: its T best teams also play the sequential protocol under noise on the training map,
+    #: and the one that succeeds most often is archived (0: choose by the training protocol alone)
+    final_sequential: int = 0
     replays: int = 1  # most general solutions per mode filmed in each protocol and map (GIFs)
     reflex_arc: bool = False  # the arcing reflex (TaskParams.reflex_arc), beyond the paper
     reflex_arc_from: str = "start"  # or "robust_phase" (see EvolutionConfig.reflex_arc_from)
@@ -95,10 +98,13 @@ class ExperimentPlan:
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, int) or v < 1:
                 raise ValueError(f"{name} must be a positive integer, got {v!r}")
-        for name in ("seed", "after_solved", "replays", "final_validation"):
+        for name in ("seed", "after_solved", "replays", "final_validation", "final_sequential"):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, int) or v < 0:
                 raise ValueError(f"{name} must be a non-negative integer, got {v!r}")
+        if self.final_sequential and not self.final_validation:
+            raise ValueError("final_sequential chooses among the final validation's best teams: give final_validation "
+                             "(--final-validation N) too")
         check_seed(self.seed + self.runs - 1, "seed of the last run (seed + runs - 1)")
         self.train_config(self.modes[0], self.seed)  # validates the rest (population, NEAT overrides)
 

@@ -14,9 +14,8 @@ from typing import Any
 import numpy as np
 
 from mahn_envs.core import BatchSim
-from mahn_envs.policies.controller_policy import ControllerPolicy
 
-from ..evaluation.eval_champion import evaluate_champion
+from ..evaluation.eval_champion import champion_policy, evaluate_champion
 from ..evaluation.final_population import KIND as FINAL_KIND
 from ..evaluation.final_population import validate_final_population
 from ..evaluation.generalize import generalize
@@ -55,12 +54,14 @@ def validate_final_populations(plan: ExperimentPlan, runs: list[RunRecord], log:
             continue
         if record.exists():
             saved = read_versioned_json(record, FINAL_KIND)
-            if (saved.get("episodes"), saved.get("generation")) == (plan.final_validation, r.generations):
-                continue  # validated with these episodes since the run last changed (a longer run validates again)
-        validate_final_population(r.folder, episodes=plan.final_validation)
+            if (saved.get("episodes"), saved.get("generation"), saved.get("sequential", {}).get("teams", 0)) == \
+                    (plan.final_validation, r.generations, plan.final_sequential):
+                continue  # validated so since the run last changed (a longer run validates again)
+        validate_final_population(r.folder, episodes=plan.final_validation, sequential_teams=plan.final_sequential)
         done += 1
     if done:
-        log(f"final validation ({plan.final_validation} episodes) of {done} run(s)")
+        seq = f", the best {plan.final_sequential} in the sequential protocol" if plan.final_sequential else ""
+        log(f"final validation ({plan.final_validation} episodes{seq}) of {done} run(s)")
 
 
 def most_general(plan: ExperimentPlan, runs: list[RunRecord], mode: str,
@@ -87,10 +88,6 @@ def most_general(plan: ExperimentPlan, runs: list[RunRecord], mode: str,
     return entries[:plan.top]
 
 
-def _policy(champ: Champion) -> ControllerPolicy:
-    return ControllerPolicy(champ.controllers, [f"robot_{k}" for k in range(champ.controllers.n_robots)])
-
-
 def transfer_tests(champ: Champion, plan: ExperimentPlan) -> dict[str, Any]:
     """Both protocols on both maps, exact (1 episode) and noisy (plan.transfer_episodes episodes), and the
     team's decision margins on the training map (a team that decides by ties will not survive noise)."""
@@ -100,8 +97,8 @@ def transfer_tests(champ: Champion, plan: ExperimentPlan) -> dict[str, Any]:
     for m in TRANSFER_MAPS:
         exact = evaluate_champion(champ, map=m, episodes=1, seed=plan.seed)
         noise = evaluate_champion(champ, map=m, episodes=plan.transfer_episodes, params=noisy, seed=plan.seed)
-        seq = sequential(_policy(champ), map=m, params=exact_task, episodes=1, seed=plan.seed)
-        seq_noise = sequential(_policy(champ), map=m, params=noisy, episodes=plan.transfer_episodes,
+        seq = sequential(champion_policy(champ), map=m, params=exact_task, episodes=1, seed=plan.seed)
+        seq_noise = sequential(champion_policy(champ), map=m, params=noisy, episodes=plan.transfer_episodes,
                                seed=plan.seed)
         out[m] = {
             "training": {"fitness": exact["fitness"], "solved": exact["solved"]},
@@ -125,7 +122,7 @@ def replays(champ: Champion, folder: Path, stem: str, seed: int = 0) -> list[Pat
         evaluate_champion(champ, map=m, seed=seed, video=path, video_every=6, video_scale=0.6)
         written.append(path)
         frames: list = []
-        sequential_episode(_policy(champ), map=m, params=champ.task(), seed=seed, frames=frames, frame_every=12)
+        sequential_episode(champion_policy(champ), map=m, params=champ.task(), seed=seed, frames=frames, frame_every=12)
         path = folder / f"{stem}_{m}_sequential.gif"
         save_gif(frames, path, fps=15, scale=0.6)
         written.append(path)
@@ -140,7 +137,7 @@ def trajectories(champ: Champion, seed: int = 0) -> dict[str, tuple[np.ndarray, 
         res = sim.run_controllers(champ.controllers, record=True)
         assert res.trajectories is not None  # record=True records them
         paths[f"{m} / training"] = (res.trajectories[0], sim.params.signal_tick)
-        seq = sequential_episode(_policy(champ), map=m, params=champ.task(), seed=seed, record=True)
+        seq = sequential_episode(champion_policy(champ), map=m, params=champ.task(), seed=seed, record=True)
         assert seq.trajectory is not None  # record=True records it
         paths[f"{m} / sequential"] = (seq.trajectory, None)
     return paths

@@ -144,6 +144,14 @@ def test_small_experiment_end_to_end_and_report_only(tmp_path):
     stamps = [p.stat().st_mtime_ns for p in records]
     assert main(["experiment", "--report-only", "--out", str(out)]) == 0
     assert stamps == [p.stat().st_mtime_ns for p in records]
+    # --final-sequential T validates again with the sequential stage (a new choice rule), and says so
+    assert main(["experiment", "--report-only", "--final-sequential", "1", "--out", str(out)]) == 0
+    assert ExperimentPlan.load(out) == replace(plan, final_validation=2, final_sequential=1)
+    assert stamps != [p.stat().st_mtime_ns for p in records]
+    assert all(json.loads(p.read_text())["sequential"]["teams"] == 1 for p in records)
+    assert "sequential protocol on the training map" in (out / "results.md").read_text()
+    with pytest.raises(ValueError, match="give final_validation"):
+        replace(plan, final_sequential=3)
 
 
 def test_interrupted_experiment_resumes_bit_identically(tmp_path):

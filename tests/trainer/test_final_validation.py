@@ -8,8 +8,16 @@ import numpy as np
 import pytest
 
 from mahn_evo.cli import main
-from mahn_evo.evaluation.final_population import VALIDATION_KEY, final_population, validate_final_population
+from mahn_evo.evaluation.eval_champion import champion_policy
+from mahn_evo.evaluation.final_population import (
+    SEQUENTIAL_SEED,
+    VALIDATION_KEY,
+    final_population,
+    validate_final_population,
+)
 from mahn_evo.evaluation.generalize import solutions_of
+from mahn_evo.evaluation.protocols import sequential
+from mahn_evo.evaluation.task_setup import task_params
 from mahn_evo.hyperneat.substrate import team_reading
 from mahn_evo.hyperneat.team_evaluator import TeamEvaluator
 from mahn_evo.storage.files import atomic_write_checked_json, read_checked_json
@@ -75,3 +83,46 @@ def test_bad_input_is_a_clear_error(tmp_path):
     with pytest.raises(ValueError, match="checkpoint"):
         validate_final_population(run)
     assert main(["final-validation", str(run)]) == 2
+
+
+ROBUST = Path(__file__).parents[2] / "docs" / "results" / "experiment_fresh_seeds_lifetime" / "champions" / \
+    "situational_s029.json"
+
+
+def test_the_sequential_stage_chooses_the_team_that_survives_the_real_world_protocol(tmp_path, capsys):
+    """Two published solutions planted in a final population: s012 (faithful; 0-3 of 10 noisy sequential episodes
+    in the published transfer test) and a lifetime-hardened s029 (10 of 10).  Every reading of both that solves
+    the noise-free task played through 4 noisy sequential episodes, the stage must rank them by successes, archive
+    the winner, and say so in the record."""
+    run = _tiny_run(tmp_path)
+    _plant(run, CHAMPION, 2)
+    _plant(run, ROBUST, 7)
+    plain = validate_final_population(run, episodes=3, write=False)
+    solutions = [(r["index"], r["reading"]) for r in plain["top"] if r["noise_free_solved"]]
+    assert {i for i, _ in solutions} == {2, 7}
+    record = validate_final_population(run, episodes=3, sequential_teams=len(solutions), sequential_episodes=4)
+    seq = record["sequential"]
+    assert (seq["teams"], seq["episodes"], seq["first_seed"], seq["map"]) == (len(solutions), 4, SEQUENTIAL_SEED,
+                                                                              "plus")
+    ranking = seq["ranking"]
+    # the candidates are the plain ranking's noise-free solutions, now ordered by sequential successes
+    assert sorted((r["index"], r["reading"]) for r in ranking) == sorted(solutions)
+    assert [r["sequential_successes"] for r in ranking] == sorted((r["sequential_successes"] for r in ranking),
+                                                                  reverse=True)
+    chosen = record["chosen"]
+    assert chosen["index"] == 7 and chosen == {**ranking[0], "file": chosen["file"]}
+    assert chosen["sequential_successes"] > max(r["sequential_successes"] for r in ranking if r["index"] == 2)
+    # the archived file plays the same: its sequential episodes replayed from the file give the recorded count
+    champ = Champion.load(run / chosen["file"])
+    again = sequential(champion_policy(champ), map="plus", params=champ.task(task_params("generalization")),
+                       episodes=4, seed=SEQUENTIAL_SEED)
+    assert sum(again["solved"]) == chosen["sequential_successes"]
+    saved = json.loads((run / "final_validation.json").read_text())
+    assert saved["chosen"]["file"] == chosen["file"] and saved["sequential"]["ranking"][0]["index"] == 7
+    assert main(["final-validation", str(run), "--episodes", "3", "--sequential", str(len(solutions)),
+                 "--sequential-episodes", "4"]) == 0
+    assert f"{chosen['sequential_successes']} of 4 sequential episodes" in capsys.readouterr().out
+    with pytest.raises(ValueError, match="sequential_teams must be a non-negative integer"):
+        validate_final_population(run, sequential_teams=-1)
+    with pytest.raises(ValueError, match="sequential_episodes must be a positive integer"):
+        validate_final_population(run, sequential_teams=1, sequential_episodes=0)
