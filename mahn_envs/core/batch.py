@@ -13,7 +13,7 @@ import numpy as np
 from ..khepera import DEFAULT_MODEL, KheperaModel
 from ..maps import World, load_map, wall_clearance
 from ..policies.team_controllers import TeamControllers
-from . import kernels
+from . import kernels, sequential
 from . import task as T
 from .api import Arena
 from .controller import transposed
@@ -304,3 +304,42 @@ class BatchSim:
         self.solved[:] = solved
         return RunResult(fitness=fitness, solved=solved, collisions=self.racc[:, :, T.R_COLL].astype(np.int64),
                          trajectories=traj if record else None)
+
+    def run_sequential(self, controllers: TeamControllers, seed: int = 0,
+                       episode_keys: Sequence[int] | np.ndarray | None = None,
+                       settings: sequential.SequentialSettings | None = None) -> sequential.SequentialRecords:
+        """Whole episodes of the sequential (real-world) protocol with evolved controllers in the compiled loop
+        (core.sequential): one team in every episode, or team b in episode b.  The sim's params must be the
+        protocol's task (`sequential.sequential_task`; `sequential.play_sequential` builds such a sim)."""
+        s = settings if settings is not None else sequential.SequentialSettings()
+        if self.params != sequential.sequential_task(self.params, s):
+            raise ValueError("run_sequential needs the protocol's task: build the sim with "
+                             "core.sequential.sequential_task(params, settings) (robots that see each other, no "
+                             "automatic signal, max_cycles for the whole protocol)")
+        ctrl = controllers.as_batch()
+        if ctrl.n_robots != self.n_robots:
+            raise ValueError(f"controllers are for {ctrl.n_robots} robots, map {self.world.name!r} has "
+                             f"{self.n_robots}")
+        n_teams = ctrl.w_ih.shape[0]
+        if n_teams not in (1, self.n_episodes):
+            raise ValueError(f"{n_teams} teams for {self.n_episodes} episodes: give one team or one per episode")
+        if n_teams == 1 and self.n_episodes > 1:
+            ctrl = ctrl.repeated(self.n_episodes)
+        self.reset(seed=seed, episode_keys=episode_keys)
+        try:  # a robot that came home is placed there facing the arena, unless home overlaps the map's walls
+            validate_poses(self.world, np.array([[self.world.home[0], self.world.home[1], np.pi / 2]]),
+                           self.model.radius, 1)
+            can_place = True
+        except ValueError:
+            can_place = False
+        B, R = self.n_episodes, self.n_robots
+        n_hidden = ctrl.w_hh.shape[-1]
+        nets = (*transposed(ctrl), np.zeros((B, R, n_hidden), dtype=np.float32),
+                np.zeros((B, R, 3), dtype=np.float32), np.zeros((B, R), dtype=np.int64), ctrl.decision == "net_input")
+        out = sequential.SequentialRecords(np.zeros((B, R, 4), dtype=np.int64), np.zeros((B, R, 4), dtype=np.bool_),
+                                           np.zeros(B, dtype=np.int64))
+        sequential.run_sequential(self._state, self._geometry, self._task(), self._work, nets,
+                                  kernels.network_scratch(nets[0], n_hidden), s.vector(),
+                                  np.ascontiguousarray(self.pose[:, :, :2]), can_place, out.records, out.stages,
+                                  out.ticks)
+        return out

@@ -21,20 +21,10 @@ import numpy as np
 from mahn_envs import patrol_return_v0
 from mahn_envs.core import TaskParams
 from mahn_envs.core.api import HOME_REACHED, POST_REACHED, manhattan
-from mahn_envs.core.params import ORIGINAL_MAX_TICKS
+from mahn_envs.core.sequential import SequentialSettings, assign_posts, call_order, sequential_task, stopped
 
-
-@dataclass
-class SequentialSettings:
-    """Timing of the sequential protocol (ticks of 33 ms) and what counts as stopped."""
-
-    patrol_ticks: int = ORIGINAL_MAX_TICKS  # longest wait for every robot to stop at a post (one episode)
-    min_patrol_ticks: int = 150
-    return_ticks: int = 1500  # longest wait for a called robot to reach home
-    out_ticks: int = 1500  # longest wait for it to be back at its post
-    stop_window: int = 30  # a robot is stopped when it moved less than stop_distance over this many ticks
-    stop_distance: float = 1.0
-    left_distance: float = 5.0  # a robot "left" when it first got this far from its start
+__all__ = ["SequentialSettings", "RobotRecord", "SequentialResult", "sequential_episode", "sequential",
+           "sequential_summary", "SEQUENTIAL_STAGES"]
 
 
 @dataclass
@@ -79,6 +69,8 @@ class _Runner:
         self.record = record
         self.frame_every = frame_every
         self.frames: list[np.ndarray] = []
+        #: positions after the last stop_window + 1 ticks (core.sequential.stopped's ring)
+        self.ring = np.zeros((settings.stop_window + 1, len(env.possible_agents), 2))
 
     def poses(self) -> list[tuple[float, float, float]]:
         return [self.infos[a]["pose"] for a in self.env.possible_agents]
@@ -87,29 +79,28 @@ class _Runner:
         src = self.infos if getattr(self.policy, "uses_infos", False) else self.obs
         self.obs, _, _, _, self.infos = self.env.step(self.policy.act(src))
         self.history.append(self.poses())
+        self.ring[len(self.history) % len(self.ring)] = [p[:2] for p in self.history[-1]]
         if self.frame_every and len(self.history) % self.frame_every == 0:
             self.frames.append(self.env.render())
 
     def stopped(self, k: int) -> bool:
-        w = self.s.stop_window
-        if len(self.history) <= w:
-            return False
-        a, b = self.history[-1 - w][k], self.history[-1][k]
-        return math.hypot(a[0] - b[0], a[1] - b[1]) < self.s.stop_distance
+        """core.sequential.stopped: robot k moved less than stop_distance over the last stop_window ticks."""
+        return bool(stopped(self.ring, len(self.history), k, self.s.stop_window, float(self.s.stop_distance)))
 
 
 def sequential_episode(policy, map: str = "plus", params: TaskParams | None = None, seed: int = 0,
                        settings: SequentialSettings | None = None, record: bool = False,
-                       frames: list | None = None, frame_every: int = 10) -> SequentialResult:
-    """One episode of the sequential protocol; RGB frames (every `frame_every` ticks) go to `frames` if given."""
+                       frames: list | None = None, frame_every: int = 10, engine: str = "pymunk") -> SequentialResult:
+    """One episode of the sequential protocol; RGB frames (every `frame_every` ticks) go to `frames` if given.
+
+    `engine` "pymunk" (the transfer test: robots bump into each other) or "kinematic" (the batch core's motion,
+    robots pass through each other; what `core.sequential.run_sequential` plays, record for record)."""
     s = settings or SequentialSettings()
-    params = params or TaskParams()
-    total = s.patrol_ticks + 3 * (s.return_ticks + s.out_ticks) + 10
-    kw = {k: v for k, v in params.to_dict().items()
-          if k not in ("max_cycles", "signal_tick", "sample_period", "auto_signal", "robots_see_each_other")}
-    env = patrol_return_v0.parallel_env(map=map, engine="pymunk", robots_collide=True, robots_see_each_other=True,
-                                        auto_signal=False, max_cycles=total, signal_tick=total - total % 30,
-                                        render_mode="rgb_array" if frames is not None else None, **kw)
+    task = sequential_task(params or TaskParams(), s)  # the env's sample_period is the default, as the task's
+    env = patrol_return_v0.parallel_env(map=map, engine=engine, **({"robots_collide": True} if engine == "pymunk"
+                                                                    else {}),
+                                        render_mode="rgb_array" if frames is not None else None,
+                                        **{k: v for k, v in task.to_dict().items() if k != "sample_period"})
     run = _Runner(policy, env, s, record, frame_every if frames is not None else 0)
     run.obs, run.infos = env.reset(seed=seed)
     policy.reset()
@@ -131,23 +122,16 @@ def sequential_episode(policy, map: str = "plus", params: TaskParams | None = No
         note_departures(t)
         if t >= s.min_patrol_ticks and all(run.stopped(k) for k in range(len(agents))):
             break
+    post = np.zeros(len(agents), dtype=np.int64)
+    reached = np.zeros(len(agents), dtype=np.bool_)
+    assign_posts(np.array([p[:2] for p in run.history[-1]]), np.asarray(world.pois, dtype=np.float64), post,
+                 reached)
     for k, rec in enumerate(records):
-        p = run.history[-1][k]
-        d = [manhattan(p, q) for q in world.pois]
-        rec.post = int(np.argmin(d))
-        rec.reached_post = bool(d[rec.post] < POST_REACHED)
-    posts = [r.post for r in records if r.reached_post]
-    if len(set(posts)) != len(posts):  # two robots at one post: only the first keeps it
-        seen: set[int] = set()
-        for r in records:
-            if r.post is None:
-                continue
-            if r.reached_post and r.post in seen:
-                r.reached_post = False
-            seen.add(r.post)
+        rec.post, rec.reached_post = int(post[k]), bool(reached[k])
     # 2. call robots home one at a time, in the order they left
-    order = sorted(range(len(agents)), key=lambda k: (records[k].left_tick is None, records[k].left_tick or 0, k))
-    for k in order:
+    order = np.zeros(len(agents), dtype=np.int64)
+    call_order(np.array([-1 if r.left_tick is None else r.left_tick for r in records], dtype=np.int64), order)
+    for k in (int(i) for i in order):
         rec, agent = records[k], agents[k]
         env.call_home(agent)
         rec.called_tick = len(run.history)

@@ -1,0 +1,127 @@
+"""The sequential protocol in the batch core (mahn_envs.core.sequential) against the env-driven protocol.
+
+The kernel is what evolution will be scored on, the env-driven protocol what the transfer test plays: with the
+same team, seed and engine (kinematic) every record must be equal, tick for tick.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from mahn_envs.core import BatchSim, TaskParams
+from mahn_envs.core.sequential import (
+    REC_CALL_END,
+    REC_CALLED,
+    REC_LEFT,
+    REC_POST,
+    S_HOME,
+    S_OUT,
+    S_POST,
+    S_STOOD,
+    SequentialSettings,
+    assign_posts,
+    call_order,
+    play_sequential,
+    sequential_task,
+    stopped,
+)
+from mahn_envs.policies.controller_policy import ControllerPolicy
+from mahn_evo.evaluation.protocols import sequential_episode
+from mahn_evo.evaluation.task_setup import task_params
+from mahn_evo.training.champion import Champion
+from tests.envs.helpers import random_team
+
+DOCS = Path(__file__).parents[2] / "docs" / "results"
+#: a lifetime-hardened team (10/10 noisy sequential episodes) and one that fails most of them (2/10 on plus)
+ROBUST = DOCS / "experiment_fresh_seeds_lifetime" / "champions" / "situational_s029.json"
+BRITTLE = DOCS / "experiment_lifetime_seeds_1_15" / "final_validation" / "champions" / "situational_s006.json"
+
+
+def _python_records(controllers, params, seed, map_name="plus", settings=None):
+    agents = [f"robot_{k}" for k in range(controllers.n_robots)]
+    res = sequential_episode(ControllerPolicy(controllers, agents), map=map_name, params=params, seed=seed,
+                             settings=settings, engine="kinematic")
+    records = [[-1 if r.left_tick is None else r.left_tick, r.post, r.called_tick, r.call_end_tick]
+               for r in res.robots]
+    stages = [[r.reached_post, r.returned_home, r.went_back_out, r.stood_when_called] for r in res.robots]
+    return res, np.array(records), np.array(stages)
+
+
+@pytest.mark.parametrize("path", [ROBUST, BRITTLE], ids=["robust", "brittle"])
+def test_kernel_plays_the_env_protocol_record_for_record(path):
+    champ = Champion.load(path)
+    noisy = champ.task(task_params("generalization"))
+    for seed in (1, 2):
+        res, records, stages = _python_records(champ.controllers, noisy, seed)
+        out = play_sequential("plus", champ.controllers, noisy, seed=seed)
+        assert np.array_equal(out.records[0], records) and np.array_equal(out.stages[0], stages)
+        assert out.ticks[0] == res.ticks and out.success[0] == res.success
+        assert out.stages_completed[0] == res.stages_completed and out.score[0] == pytest.approx(res.score)
+    # the robust team succeeds in both episodes, the brittle one in neither (these seeds)
+    assert play_sequential("plus", champ.controllers, noisy, seed=1).success[0] == (path == ROBUST)
+
+
+def test_a_batch_of_teams_is_each_team_alone_and_other_sizes_and_maps_agree():
+    """Team b in episode b equals the team played alone; a network size without the packed fast path (5
+    hidden units) and the test map give the env protocol's records too (short settings: random teams)."""
+    short = SequentialSettings(patrol_ticks=300, return_ticks=200, out_ticks=200)
+    params = task_params("generalization")
+    robust, brittle = Champion.load(ROBUST).controllers, Champion.load(BRITTLE).controllers
+    from mahn_envs.policies.team_controllers import TeamControllers
+
+    both = TeamControllers(*(np.stack([getattr(robust, f), getattr(brittle, f)])
+                             for f in ("w_ih", "w_hh", "w_ho", "b_h", "b_o")))
+    batch = play_sequential("plus", both, params, seed=3, episode_keys=[0, 0])
+    for b, team in enumerate((robust, brittle)):
+        alone = play_sequential("plus", team, params, seed=3)
+        assert np.array_equal(batch.records[b], alone.records[0]) and np.array_equal(batch.stages[b], alone.stages[0])
+    rng = np.random.default_rng(0)
+    small = TeamControllers(*(rng.normal(0, 1.5, shape) for shape in ((3, 2, 5, 7), (3, 2, 5, 5), (3, 2, 3, 5),
+                                                                     (3, 2, 5), (3, 2, 3))))
+    for team, map_name in ((small, "plus"), (random_team(4), "asymmetric_plus")):
+        _, records, stages = _python_records(team, params, 5, map_name, short)
+        out = play_sequential(map_name, team, params, settings=short, seed=5)
+        assert np.array_equal(out.records[0], records) and np.array_equal(out.stages[0], stages)
+
+
+def test_the_rules():
+    # stopped: the ring holds the positions after the last window + 1 ticks
+    ring = np.zeros((4, 1, 2))
+    for t, x in enumerate([0.0, 5.0, 5.2, 5.4, 5.6, 9.0], start=1):
+        ring[t % 4, 0, 0] = x
+        if t == 3:
+            assert not stopped(ring, t, 0, 3, 1.0)  # too few ticks yet
+        if t == 5:
+            assert stopped(ring, t, 0, 3, 1.0)  # 5.0 -> 5.6 over 3 ticks
+    assert not stopped(ring, 6, 0, 3, 1.0)  # 5.2 -> 9.0
+    # posts: the nearest POI (Manhattan); two robots that reached one post: the first keeps it
+    pois = np.array([[0.0, 0.0], [100.0, 0.0], [0.0, 100.0]])
+    post, reached = np.zeros(3, dtype=np.int64), np.zeros(3, dtype=np.bool_)
+    assign_posts(np.array([[3.0, 2.0], [98.0, 9.0], [2.0, 1.0]]), pois, post, reached)
+    assert post.tolist() == [0, 1, 0] and reached.tolist() == [True, True, False]
+    assign_posts(np.array([[30.0, 0.0], [5.0, 0.0], [0.0, 99.0]]), pois, post, reached)
+    assert post.tolist() == [0, 0, 2] and reached.tolist() == [False, True, True]  # no two reached it: kept
+    # call order: by the tick they left, robots that never left last, ties by index
+    order = np.zeros(4, dtype=np.int64)
+    call_order(np.array([40, -1, 12, 40]), order)
+    assert order.tolist() == [2, 0, 3, 1]
+    assert (REC_LEFT, REC_POST, REC_CALLED, REC_CALL_END) == (0, 1, 2, 3)
+    assert (S_POST, S_HOME, S_OUT, S_STOOD) == (0, 1, 2, 3)
+
+
+def test_bad_settings_and_a_sim_without_the_protocols_task_are_clear_errors():
+    with pytest.raises(ValueError, match="return_ticks must be a positive integer"):
+        SequentialSettings(return_ticks=0)
+    with pytest.raises(ValueError, match="stop_distance must be a positive number"):
+        SequentialSettings(stop_distance=float("nan"))
+    with pytest.raises(ValueError, match="needs the protocol's task"):
+        BatchSim("plus", 1).run_sequential(random_team(1))
+    sim = BatchSim("plus", 2, sequential_task(TaskParams(), SequentialSettings()))
+    with pytest.raises(ValueError, match="3 teams for 2 episodes"):
+        from mahn_envs.policies.team_controllers import TeamControllers
+
+        teams = [random_team(s) for s in range(3)]
+        sim.run_sequential(TeamControllers(*(np.stack([getattr(t, f) for t in teams])
+                                             for f in ("w_ih", "w_hh", "w_ho", "b_h", "b_o"))))
