@@ -71,6 +71,10 @@ def _fidelity_and_robustness_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--plain-episodes", type=int, metavar="N",
                    help="with --map-spread or --map-branch: play the first N keyed (noisy) episodes of each "
                         "generation on the map itself and only the others on variants (default 0)")
+    p.add_argument("--sequential-episodes", type=int, metavar="S",
+                   help="also score every team on S episodes of the sequential (real-world) protocol per "
+                        "generation (with --robust-from first_solution: of the robust phase), the task's noise, "
+                        "fresh per generation with --noise-draws per_generation (default 0)")
     p.add_argument("--robust-from", choices=ROBUST_FROM,
                    help="with --noise: start (default: every generation is scored under noise) or first_solution "
                         "(noise-free, exactly the run without noise, until the first solution; the generations "
@@ -313,7 +317,7 @@ def experiment_plan(args: argparse.Namespace) -> ExperimentPlan:
               "aggregate": args.aggregate, "quantile": args.quantile,
               "noise_free_episode": args.noise_free_episode, "map_spread": args.map_spread,
               "map_branch": args.map_branch, "branch_sides": args.branch_sides,
-              "plain_episodes": args.plain_episodes,
+              "plain_episodes": args.plain_episodes, "sequential_episodes": args.sequential_episodes,
               "robust_from": args.robust_from,
               "robust_delay": args.robust_delay, "noise_free_branch": args.noise_free_branch,
               "fitness_memory": args.fitness_memory, "diversity": args.diversity, "diversity_k": args.diversity_k,
@@ -421,7 +425,7 @@ def cmd_train(args) -> int:
                      aggregate=args.aggregate,
                      quantile=args.quantile, noise_free_episode=args.noise_free_episode, map_spread=args.map_spread,
                      map_branch=args.map_branch, branch_sides=args.branch_sides,
-                     plain_episodes=args.plain_episodes,
+                     plain_episodes=args.plain_episodes, sequential_episodes=args.sequential_episodes,
                      diversity=args.diversity, diversity_k=args.diversity_k, restart_every=args.restart_every)
     if args.resume and (args.out / "config.json").exists() and not args.config and not args.preset:
         from .storage.files import read_versioned_json

@@ -14,6 +14,7 @@ import numpy as np
 from mahn_envs.core import BatchSim, TaskParams
 from mahn_envs.core.controller import DECISIONS
 from mahn_envs.core.rng import check_seed
+from mahn_envs.core.sequential import SequentialSettings, sequential_task
 from mahn_envs.maps import load_map
 from mahn_envs.maps.variants import check_branch, spread_variant
 from mahn_envs.policies.team_controllers import TeamControllers
@@ -82,6 +83,13 @@ class EvaluationSettings:
     #: others on variants, so every generation keeps noisy episodes on the map the team was solved on (all-variant
     #: hardening traded plus for the test map: docs/results/experiment_harden_branch/)
     plain_episodes: int = 0
+    #: 0 (the paper): every episode in the training protocol.  S > 0: each team also plays S episodes of the
+    #: sequential (real-world) protocol per generation (mahn_envs.core.sequential: robots called home one at a
+    #: time, placed at home and sent back out, robots that see each other; the task's noise; keys from
+    #: SEQUENTIAL_KEY, fresh per generation with per-generation draws), scored by `sequential_fitness` and
+    #: aggregated with the other episodes.  Why: teams hardened on noisy training episodes can still fail the noisy
+    #: sequential protocol, the robustness test (docs/results/experiment_lifetime_seeds_1_15/)
+    sequential_episodes: int = 0
 
     @property
     def on_variants(self) -> bool:
@@ -125,9 +133,26 @@ class EvaluationSettings:
                              "MultipleSteps does): it cannot be combined with evaluate_modules = false")
         if isinstance(self.episodes, bool) or not isinstance(self.episodes, int) or self.episodes < 1:
             raise ValueError(f"episodes must be a positive integer, got {self.episodes!r}")
+        if isinstance(self.sequential_episodes, bool) or not isinstance(self.sequential_episodes, int) \
+                or self.sequential_episodes < 0:
+            raise ValueError(f"sequential_episodes must be a non-negative integer, got {self.sequential_episodes!r}")
         if not isinstance(self.seed, int):  # not numpy ints either: a run's configuration is saved as JSON
             raise TypeError(f"seed must be an integer in [0, 2**64), got {self.seed!r}")
         check_seed(self.seed, "seed")
+
+
+#: the first key of the sequential-protocol episodes (below 2**32: start jitter is drawn from the key's low 32 bits)
+SEQUENTIAL_KEY = 1 << 31
+#: a successful sequential episode scores as an ideal training episode (one robot to each post and back: 166.5)
+SEQUENTIAL_SUCCESS_FITNESS = 166.5
+
+
+def sequential_fitness(stages_completed: np.ndarray, success: np.ndarray, n_robots: int) -> np.ndarray:
+    """A sequential episode's fitness on the training fitness's scale: 100 x the fraction of its 3 R stages done,
+    plus the rest of SEQUENTIAL_SUCCESS_FITNESS on success, so that it is above 100 exactly when the episode
+    succeeded (as a training episode is above 100 exactly when solved) and partial progress still counts."""
+    done = np.asarray(stages_completed, dtype=np.float64) / (3 * n_robots)
+    return 100.0 * done + (SEQUENTIAL_SUCCESS_FITNESS - 100.0) * np.asarray(success, dtype=np.float64)
 
 
 @dataclass
@@ -195,6 +220,7 @@ class TeamEvaluator:
         self.world = load_map(settings.map)
         self._sims: dict[int, BatchSim] = {}
         self._clean_sims: dict[int, BatchSim] = {}
+        self._sequential_sims: dict[int, BatchSim] = {}
         #: genome -> (the batch it was decoded in, its row)
         self._decoded: GenerationMemo[tuple[TeamControllers, int]] = GenerationMemo()
         self._scores: GenerationMemo[tuple[float, bool, np.ndarray]] = GenerationMemo()
@@ -241,6 +267,18 @@ class TeamEvaluator:
             self._clean_sims = {n: BatchSim(self.world, n, self.settings.task.without_noise())}
         return self._clean_sims[n]
 
+    def _sequential_sim(self, n: int) -> BatchSim:
+        if n not in self._sequential_sims:
+            self._sequential_sims = {n: BatchSim(self.world, n, sequential_task(self.settings.task,
+                                                                               SequentialSettings()))}
+        return self._sequential_sims[n]
+
+    def sequential_keys(self, generation: int = 0) -> list[int]:
+        """The keys of the sequential-protocol episodes every team of `generation` plays (sequential_episodes)."""
+        k = self.settings.sequential_episodes
+        first = SEQUENTIAL_KEY + (generation * k if self.settings.noise_draws == "per_generation" else 0)
+        return list(range(first, first + k))
+
     def episode_keys(self, generation: int = 0) -> list[int]:
         """The keys of the episodes every team of `generation` is scored on."""
         k = self.settings.episodes
@@ -272,32 +310,41 @@ class TeamEvaluator:
         n = ctrl.w_ih.shape[0]
         teams = [all_keys[i] for i in first]
         self._scores.next_generation()
-        episodes = [(False, key) for key in self.episode_keys(generation)]
+        # (protocol, key): the keyed training episodes, the noise-free one, the sequential-protocol ones, in this order
+        episodes = [("keyed", key) for key in self.episode_keys(generation)]
         if s.noise_free_episode:
-            episodes.append((True, 0))
+            episodes.append(("clean", 0))
+        episodes += [("sequential", key) for key in self.sequential_keys(generation)]
         fits = np.zeros((len(episodes), n))
         solved = np.zeros(n)
         ends = np.zeros((n, ctrl.n_robots, 2))
-        for e, (clean, key) in enumerate(episodes):
+        for e, (protocol, key) in enumerate(episodes):
             todo = []
             for i, team in enumerate(teams):
-                known = self._scores.get((team, clean, key))
+                known = self._scores.get((team, protocol, key))
                 if known is None:
                     todo.append(i)
                 else:
-                    fits[e, i], solved_e, end = known
-                    solved[i] += solved_e
+                    fits[e, i], was_solved, end = known
+                    solved[i] += was_solved
                     ends[i] += end
             if todo:
                 run = ctrl if len(todo) == n else _rows(ctrl, np.array(todo))
-                sim = self._clean_sim(len(todo)) if clean else self._keyed_sim(key, len(todo))
-                res = sim.run_controllers(run, seed=s.seed, episode_keys=np.full(len(todo), key, dtype=np.int64))
+                keys = np.full(len(todo), key, dtype=np.int64)
+                if protocol == "sequential":
+                    sim = self._sequential_sim(len(todo))
+                    seq = sim.run_sequential(run, seed=s.seed, episode_keys=keys)
+                    fit_e, ok_e = sequential_fitness(seq.stages_completed, seq.success, ctrl.n_robots), seq.success
+                else:
+                    sim = self._clean_sim(len(todo)) if protocol == "clean" else self._keyed_sim(key, len(todo))
+                    res = sim.run_controllers(run, seed=s.seed, episode_keys=keys)
+                    fit_e, ok_e = res.fitness, res.solved
                 end_xy = sim.pose[:, :, :2].copy()  # where the episodes left each robot
                 for j, i in enumerate(todo):
-                    fits[e, i] = res.fitness[j]
-                    solved[i] += res.solved[j]
+                    fits[e, i] = fit_e[j]
+                    solved[i] += ok_e[j]
                     ends[i] += end_xy[j]
-                    self._scores.put((teams[i], clean, key), (float(res.fitness[j]), bool(res.solved[j]), end_xy[j]))
+                    self._scores.put((teams[i], protocol, key), (float(fit_e[j]), bool(ok_e[j]), end_xy[j]))
         if s.aggregate == "min":
             fit = fits.min(axis=0)
         elif s.aggregate == "quantile":

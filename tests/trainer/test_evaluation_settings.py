@@ -24,7 +24,7 @@ def test_a_run_hands_its_evaluation_fields_to_the_evaluator(tmp_path):
         "evaluate_modules": False, "cppn_activation": "recursive", "decision": "net_input", "symmetry": "best",
         "noise_draws": "per_generation",
         "aggregate": "quantile", "quantile": 0.5, "noise_free_episode": True, "map_spread": 0.0,
-        "map_branch": 0.0, "branch_sides": "both", "plain_episodes": 0}
+        "map_branch": 0.0, "branch_sides": "both", "plain_episodes": 0, "sequential_episodes": 0}
     trainer = Trainer(cfg.with_overrides(pop=8), tmp_path / "run")
     assert trainer.evaluator.settings == ev
     assert trainer.evaluator.world.name == "asymmetric_plus"
@@ -35,7 +35,8 @@ def test_a_run_hands_its_evaluation_fields_to_the_evaluator(tmp_path):
     ("aggregate", "median", ValueError), ("noise_draws", "often", ValueError), ("quantile", 1.5, ValueError),
     ("cppn_activation", "fast", ValueError), ("noise_free_episode", "yes", TypeError), ("seed", -1, ValueError),
     ("map_spread", 1.5, ValueError),
-    ("map_branch", 60.0, ValueError), ("plain_episodes", -1, ValueError),
+    ("map_branch", 60.0, ValueError), ("plain_episodes", -1, ValueError), ("sequential_episodes", -2, ValueError),
+    ("sequential_episodes", True, ValueError),
 ])
 def test_bad_evaluation_fields_are_refused_by_name_in_both_records(field, bad, error):
     with pytest.raises(error, match=field):

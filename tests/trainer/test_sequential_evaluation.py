@@ -1,0 +1,90 @@
+"""Sequential-protocol episodes in evolution (EvaluationSettings.sequential_episodes): teams scored on the protocol
+the robustness test plays, in the batch core, aggregated with the training episodes."""
+from __future__ import annotations
+
+import json
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from mahn_envs.core.sequential import play_sequential
+from mahn_evo.cli import main
+from mahn_evo.hyperneat.team_evaluator import (
+    SEQUENTIAL_KEY,
+    SEQUENTIAL_SUCCESS_FITNESS,
+    EvaluationSettings,
+    TeamEvaluator,
+    sequential_fitness,
+)
+from mahn_evo.training.champion import Champion
+from mahn_evo.training.config import EvolutionConfig
+from mahn_evo.training.trainer import Trainer, train
+
+DOCS = Path(__file__).parents[2] / "docs" / "results"
+ROBUST = DOCS / "experiment_fresh_seeds_lifetime" / "champions" / "situational_s029.json"
+BRITTLE = DOCS / "experiment_lifetime_seeds_1_15" / "final_validation" / "champions" / "situational_s006.json"
+NOISY = EvolutionConfig().with_noise("generalization").task
+
+
+def test_the_fitness_is_above_100_exactly_on_success():
+    f = sequential_fitness(np.array([9, 8, 0, 9]), np.array([True, False, False, True]), 3)
+    assert f.tolist() == [SEQUENTIAL_SUCCESS_FITNESS, pytest.approx(800 / 9), 0.0, SEQUENTIAL_SUCCESS_FITNESS]
+    assert f[0] > 100 > f[1]
+
+
+def test_sequential_episodes_score_teams_on_the_protocol_in_the_batch_core():
+    """Two published teams (one that passes the noisy protocol, one that fails it) through an evaluator with one
+    training episode and two sequential ones: each sequential score is the core's protocol episode for the
+    generation's key; keys are fresh per generation and shared by the teams."""
+    robust, brittle = Champion.load(ROBUST), Champion.load(BRITTLE)
+    settings = EvaluationSettings(task=NOISY, episodes=1, noise_draws="per_generation", sequential_episodes=2,
+                                  seed=3)
+    ev = TeamEvaluator(settings)
+    assert ev.sequential_keys(0) == [SEQUENTIAL_KEY, SEQUENTIAL_KEY + 1]
+    assert ev.sequential_keys(4) == [SEQUENTIAL_KEY + 8, SEQUENTIAL_KEY + 9]
+    from mahn_envs.policies.team_controllers import TeamControllers
+
+    teams = TeamControllers(*(np.stack([getattr(robust.controllers, f), getattr(brittle.controllers, f)])
+                              for f in ("w_ih", "w_hh", "w_ho", "b_h", "b_o")))
+    fitness, solved, _ = ev.outcomes(teams, generation=4)
+    plain, plain_solved, _ = TeamEvaluator(replace(settings, sequential_episodes=0)).outcomes(teams, generation=4)
+    for b, champ in enumerate((robust, brittle)):
+        seq = [play_sequential("plus", champ.controllers, NOISY, seed=3, episode_keys=[k])
+               for k in ev.sequential_keys(4)]
+        seq_fit = [sequential_fitness(s.stages_completed, s.success, 3)[0] for s in seq]
+        assert fitness[b] == pytest.approx((plain[b] + sum(seq_fit)) / 3, abs=1e-9)
+        assert solved[b] == pytest.approx((plain_solved[b] + sum(bool(s.success[0]) for s in seq)) / 3)
+    assert fitness[0] > fitness[1]  # the team that passes the protocol now scores higher
+    # without sequential episodes nothing changes: the same scores as an evaluator that never knew of them
+    assert np.array_equal(plain, TeamEvaluator(EvaluationSettings(task=NOISY, episodes=1, noise_draws="per_generation",
+                                                                  seed=3)).outcomes(teams, generation=4)[0])
+    with pytest.raises(ValueError, match="sequential_episodes must be a non-negative integer"):
+        EvaluationSettings(sequential_episodes=-1)
+
+
+def _config(**kw):
+    base = dict(generations=3, seed=5, episodes=1, noise_draws="per_generation", sequential_episodes=1)
+    base.update(kw)
+    return EvolutionConfig(**base).with_overrides(pop=12).with_noise("generalization")
+
+
+def test_training_with_sequential_episodes_is_deterministic_resumes_and_is_saved(tmp_path):
+    full = train(_config(), tmp_path / "full")
+    part = Trainer(_config(generations=2), tmp_path / "part")
+    part.run()
+    resumed = train(_config(), tmp_path / "part", resume=True)
+    assert resumed["best_fitness"] == full["best_fitness"]
+    rows = [[r.split(",")[:8] for r in (tmp_path / run / "log.csv").read_text().splitlines()]
+            for run in ("full", "part")]
+    assert rows[0] == rows[1] and len(rows[0]) == 4  # header and 3 generations, equal but for the timings
+    assert json.loads((tmp_path / "full" / "config.json").read_text())["sequential_episodes"] == 1
+    # a robust-phase setting: the noise-free phase of robust_from first_solution does not play them
+    cfg = replace(_config(), robust_from="first_solution")
+    assert cfg.noise_free_evaluation.sequential_episodes == 0 and cfg.evaluation.sequential_episodes == 1
+    # the CLI passes it on
+    out = tmp_path / "cli"
+    assert main(["train", "--generations", "1", "--pop", "8", "--noise", "generalization", "--episodes", "1",
+                 "--noise-draws", "per_generation", "--sequential-episodes", "1", "--quiet", "--out", str(out)]) == 0
+    assert json.loads((out / "config.json").read_text())["sequential_episodes"] == 1
