@@ -241,7 +241,9 @@ class Trainer:
         stats = self.population.tell(selection_fitness(fitness, ev.end_positions, cfg.diversity, cfg.diversity_k))
         seconds = time.perf_counter() - t0
         self.wall += seconds
-        evaluations = (self.rows[-1][1] if self.rows else 0) + len(genomes) * episodes * evaluator.readings
+        # team-episodes: the keyed training episodes and the sequential-protocol ones (each of those is longer)
+        played = episodes + evaluator.settings.sequential_episodes
+        evaluations = (self.rows[-1][1] if self.rows else 0) + len(genomes) * played * evaluator.readings
         self.rows.append([gen, evaluations, float(ev.fitness[best]), float(ev.fitness.mean()),
                           float(self.best_fitness), bool(solved_mask[best]), int(solved_mask.sum()),
                           stats.n_species, round(stats.threshold, 6), round(stats.mean_complexity, 3),

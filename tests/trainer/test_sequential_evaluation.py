@@ -79,6 +79,7 @@ def test_training_with_sequential_episodes_is_deterministic_resumes_and_is_saved
     rows = [[r.split(",")[:8] for r in (tmp_path / run / "log.csv").read_text().splitlines()]
             for run in ("full", "part")]
     assert rows[0] == rows[1] and len(rows[0]) == 4  # header and 3 generations, equal but for the timings
+    assert int(rows[0][-1][1]) == 3 * 12 * 2  # evaluations count the sequential episodes too
     assert json.loads((tmp_path / "full" / "config.json").read_text())["sequential_episodes"] == 1
     # a robust-phase setting: the noise-free phase of robust_from first_solution does not play them
     cfg = replace(_config(), robust_from="first_solution")
