@@ -86,9 +86,10 @@ class EvaluationSettings:
     #: 0 (the paper): every episode in the training protocol.  S > 0: each team also plays S episodes of the
     #: sequential (real-world) protocol per generation (mahn_envs.core.sequential: robots called home one at a
     #: time, placed at home and sent back out, robots that see each other; the task's noise; keys from
-    #: SEQUENTIAL_KEY, fresh per generation with per-generation draws), scored by `sequential_fitness` and
-    #: aggregated with the other episodes.  Why: teams hardened on noisy training episodes can still fail the noisy
-    #: sequential protocol, the robustness test (docs/results/experiment_lifetime_seeds_1_15/)
+    #: SEQUENTIAL_KEY, fresh per generation with per-generation draws; with map_spread or map_branch each on its
+    #: key's plus variant), scored by `sequential_fitness` and aggregated with the other episodes.  Why: teams
+    #: hardened on noisy training episodes can still fail the noisy sequential protocol, the robustness test
+    #: (docs/results/experiment_lifetime_seeds_1_15/)
     sequential_episodes: int = 0
 
     @property
@@ -267,10 +268,16 @@ class TeamEvaluator:
             self._clean_sims = {n: BatchSim(self.world, n, self.settings.task.without_noise())}
         return self._clean_sims[n]
 
-    def _sequential_sim(self, n: int) -> BatchSim:
+    def _sequential_sim(self, key: int, n: int) -> BatchSim:
+        """The simulator of sequential-protocol episode `key` for n teams: on the map, or with map_spread or
+        map_branch on the key's plus variant (every sequential episode then is: the training episodes keep
+        `plain_episodes` on the map itself)."""
+        s = self.settings
+        task = sequential_task(s.task, SequentialSettings())
+        if s.on_variants:
+            return BatchSim(spread_variant(s.seed, key, s.map_spread, s.map_branch, s.branch_sides), n, task)
         if n not in self._sequential_sims:
-            self._sequential_sims = {n: BatchSim(self.world, n, sequential_task(self.settings.task,
-                                                                               SequentialSettings()))}
+            self._sequential_sims = {n: BatchSim(self.world, n, task)}
         return self._sequential_sims[n]
 
     def sequential_keys(self, generation: int = 0) -> list[int]:
@@ -332,7 +339,7 @@ class TeamEvaluator:
                 run = ctrl if len(todo) == n else _rows(ctrl, np.array(todo))
                 keys = np.full(len(todo), key, dtype=np.int64)
                 if protocol == "sequential":
-                    sim = self._sequential_sim(len(todo))
+                    sim = self._sequential_sim(key, len(todo))
                     seq = sim.run_sequential(run, seed=s.seed, episode_keys=keys)
                     fit_e, ok_e = sequential_fitness(seq.stages_completed, seq.success, ctrl.n_robots), seq.success
                 else:

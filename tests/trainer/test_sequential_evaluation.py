@@ -89,3 +89,20 @@ def test_training_with_sequential_episodes_is_deterministic_resumes_and_is_saved
     assert main(["train", "--generations", "1", "--pop", "8", "--noise", "generalization", "--episodes", "1",
                  "--noise-draws", "per_generation", "--sequential-episodes", "1", "--quiet", "--out", str(out)]) == 0
     assert json.loads((out / "config.json").read_text())["sequential_episodes"] == 1
+
+
+def test_with_map_branch_the_sequential_episodes_play_on_their_keys_plus_variants():
+    from mahn_envs.maps.variants import spread_variant
+
+    robust = Champion.load(ROBUST)
+    settings = EvaluationSettings(task=NOISY, episodes=1, noise_draws="per_generation", sequential_episodes=1, seed=3,
+                                  map_branch=49.0, branch_sides="one_short", plain_episodes=1)
+    ev = TeamEvaluator(settings)
+    fitness, _, _ = ev.outcomes(robust.controllers.as_batch(), generation=2)
+    plain, _, _ = TeamEvaluator(replace(settings, sequential_episodes=0)).outcomes(robust.controllers.as_batch(), 2)
+    key = ev.sequential_keys(2)[0]
+    variant = spread_variant(3, key, 0.0, 49.0, "one_short")
+    seq = play_sequential(variant, robust.controllers, NOISY, seed=3, episode_keys=[key])
+    on_plus = play_sequential("plus", robust.controllers, NOISY, seed=3, episode_keys=[key])
+    assert fitness[0] == pytest.approx((plain[0] + sequential_fitness(seq.stages_completed, seq.success, 3)[0]) / 2)
+    assert not np.array_equal(seq.records, on_plus.records)  # another map: another episode
