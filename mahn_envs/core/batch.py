@@ -272,12 +272,8 @@ class BatchSim:
         return RunResult(fitness=fitness, solved=solved, collisions=self.racc[:, :, T.R_COLL].astype(np.int64))
 
     # ------------------------------------------------------------------ controllers in the loop
-    def run_controllers(self, controllers: TeamControllers, seed: int = 0, poses: np.ndarray | None = None,
-                        episode_keys: Sequence[int] | np.ndarray | None = None, record: bool = False) -> RunResult:
-        """Run whole episodes with evolved controllers inside the compiled loop (both cores).
-
-        A single team is run in every episode; a batch of B teams runs team b in episode b.
-        """
+    def _teams(self, controllers: TeamControllers) -> TeamControllers:
+        """The controllers as a batch of one team per episode (one team given: repeated), checked against the map."""
         ctrl = controllers.as_batch()
         if ctrl.n_robots != self.n_robots:
             raise ValueError(f"controllers are for {ctrl.n_robots} robots, map {self.world.name!r} has "
@@ -287,6 +283,15 @@ class BatchSim:
             raise ValueError(f"{n_teams} teams for {self.n_episodes} episodes: give one team or one per episode")
         if n_teams == 1 and self.n_episodes > 1:
             ctrl = ctrl.repeated(self.n_episodes)
+        return ctrl
+
+    def run_controllers(self, controllers: TeamControllers, seed: int = 0, poses: np.ndarray | None = None,
+                        episode_keys: Sequence[int] | np.ndarray | None = None, record: bool = False) -> RunResult:
+        """Run whole episodes with evolved controllers inside the compiled loop (both cores).
+
+        A single team is run in every episode; a batch of B teams runs team b in episode b.
+        """
+        ctrl = self._teams(controllers)
         self.reset(seed=seed, poses=poses, episode_keys=episode_keys)
         B, R = self.n_episodes, self.n_robots
         n_hidden = ctrl.w_hh.shape[-1]
@@ -316,15 +321,7 @@ class BatchSim:
             raise ValueError("run_sequential needs the protocol's task: build the sim with "
                              "core.sequential.sequential_task(params, settings) (robots that see each other, no "
                              "automatic signal, max_cycles for the whole protocol)")
-        ctrl = controllers.as_batch()
-        if ctrl.n_robots != self.n_robots:
-            raise ValueError(f"controllers are for {ctrl.n_robots} robots, map {self.world.name!r} has "
-                             f"{self.n_robots}")
-        n_teams = ctrl.w_ih.shape[0]
-        if n_teams not in (1, self.n_episodes):
-            raise ValueError(f"{n_teams} teams for {self.n_episodes} episodes: give one team or one per episode")
-        if n_teams == 1 and self.n_episodes > 1:
-            ctrl = ctrl.repeated(self.n_episodes)
+        ctrl = self._teams(controllers)
         self.reset(seed=seed, episode_keys=episode_keys)
         try:  # a robot that came home is placed there facing the arena, unless home overlaps the map's walls
             validate_poses(self.world, np.array([[self.world.home[0], self.world.home[1], np.pi / 2]]),

@@ -5,8 +5,6 @@ same team, seed and engine (kinematic) every record must be equal, tick for tick
 """
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 
@@ -31,12 +29,9 @@ from mahn_envs.policies.controller_policy import ControllerPolicy
 from mahn_evo.evaluation.protocols import sequential_episode
 from mahn_evo.evaluation.task_setup import task_params
 from mahn_evo.training.champion import Champion
-from tests.envs.helpers import random_team
+from tests.envs.helpers import BRITTLE_TEAM, ROBUST_TEAM, random_team
 
-DOCS = Path(__file__).parents[2] / "docs" / "results"
-#: a lifetime-hardened team (10/10 noisy sequential episodes) and one that fails most of them (2/10 on plus)
-ROBUST = DOCS / "experiment_fresh_seeds_lifetime" / "champions" / "situational_s029.json"
-BRITTLE = DOCS / "experiment_lifetime_seeds_1_15" / "final_validation" / "champions" / "situational_s006.json"
+ROBUST, BRITTLE = ROBUST_TEAM, BRITTLE_TEAM
 
 
 def _python_records(controllers, params, seed, map_name="plus", settings=None):

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import json
 from dataclasses import replace
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -21,10 +20,9 @@ from mahn_evo.hyperneat.team_evaluator import (
 from mahn_evo.training.champion import Champion
 from mahn_evo.training.config import EvolutionConfig
 from mahn_evo.training.trainer import Trainer, train
+from tests.envs.helpers import BRITTLE_TEAM, ROBUST_TEAM
 
-DOCS = Path(__file__).parents[2] / "docs" / "results"
-ROBUST = DOCS / "experiment_fresh_seeds_lifetime" / "champions" / "situational_s029.json"
-BRITTLE = DOCS / "experiment_lifetime_seeds_1_15" / "final_validation" / "champions" / "situational_s006.json"
+ROBUST, BRITTLE = ROBUST_TEAM, BRITTLE_TEAM
 NOISY = EvolutionConfig().with_noise("generalization").task
 
 
