@@ -1,14 +1,20 @@
 """Pilot assessment: per run, final validation with the sequential stage (25 training-protocol episodes, the best
 20 through 10 sequential episodes on plus), then the chosen team's robustness test (10 noisy sequential episodes
 per map, episode seeds 1..10 as the experiment's transfer test) and its 25-episode generalisation score."""
-import json, sys
+import json
+import sys
 from pathlib import Path
+
 import numpy as np
-from mahn_evo.evaluation.final_population import validate_final_population
+
 from mahn_evo.evaluation.eval_champion import champion_policy, evaluate_champion
+from mahn_evo.evaluation.final_population import final_population, validate_final_population
 from mahn_evo.evaluation.protocols import sequential
 from mahn_evo.evaluation.task_setup import task_params
+from mahn_evo.hyperneat.substrate import team_reading
+from mahn_evo.hyperneat.team_evaluator import TeamEvaluator
 from mahn_evo.training.champion import Champion
+
 out = {}
 for run in sys.argv[2:]:
     run = Path(run)
@@ -18,9 +24,6 @@ for run in sys.argv[2:]:
         out[run.name] = None
         print(run.name, "no solution", flush=True)
         continue
-    from mahn_evo.evaluation.final_population import final_population
-    from mahn_evo.hyperneat.team_evaluator import TeamEvaluator
-    from mahn_evo.hyperneat.substrate import team_reading
     config, pop = final_population(run)
     ctrl = team_reading(TeamEvaluator(config.evaluation).decode([pop.genomes[ch["index"]]]), ch["reading"]).team(0)
     champ = Champion(mode=config.mode, fitness=ch["mean_fitness"], solved=True, generation=pop.generation,
