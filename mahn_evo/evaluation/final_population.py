@@ -76,8 +76,8 @@ def validate_final_population(run_dir: str | Path, episodes: int = 25, sequentia
     noisy = replace(task_params("generalization"), reflex_arc=reflex)
     keys = [VALIDATION_KEY + i for i in range(episodes)]
     rows: list[dict[str, Any]] = []
-    for reading in readings:
-        batch = team_reading(controllers, reading)
+    batches = {reading: team_reading(controllers, reading) for reading in readings}
+    for reading, batch in batches.items():
         clean_fit, clean_solved = keyed_episodes(batch, config.map, clean, config.seed, [0])
         fit, solved = keyed_episodes(batch, config.map, noisy, config.seed, keys)
         for i in range(len(genomes)):
@@ -90,8 +90,8 @@ def validate_final_population(run_dir: str | Path, episodes: int = 25, sequentia
 
     def champion(row: dict[str, Any]) -> Champion:
         return Champion(mode=config.mode, fitness=row["mean_fitness"], solved=True, generation=gen,
-                        genome=genomes[row["index"]], controllers=team_reading(controllers, row["reading"]).team(
-                            row["index"]), seed=config.seed, map=config.map, reflex_arc=reflex)
+                        genome=genomes[row["index"]], controllers=batches[row["reading"]].team(row["index"]),
+                        seed=config.seed, map=config.map, reflex_arc=reflex)
 
     record: dict[str, Any] = {"generation": gen, "episodes": episodes, "seed": config.seed,
                               "first_key": VALIDATION_KEY, "noise": "generalization", "teams": len(rows),
