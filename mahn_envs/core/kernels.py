@@ -194,11 +194,21 @@ def borrowed(typingctx, group):
     return group(group), codegen
 
 
+@njit(cache=True, error_model="numpy", inline="always")
+def forget_episode_rays(b, work):
+    """Clear episode b's memos (after a robot of it was placed anew): its next sensing casts every ray."""
+    for r in range(work[1].shape[1]):
+        for j in range(work[1].shape[2]):
+            work[1][b, r, j] = np.nan
+        for j in range(work[0].shape[2]):
+            work[0][b, r, j] = 0.0
+
+
 @njit(cache=True, error_model="numpy")
 def forget_rays(work):
     """Clear the memos (after raw was written or the robots were placed anew): the next sensing casts every ray."""
-    work[1][:] = np.nan
-    work[0][:] = 0.0
+    for b in range(work[1].shape[0]):
+        forget_episode_rays(b, work)
 
 
 @njit(cache=True, error_model="numpy")

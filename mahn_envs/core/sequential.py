@@ -35,7 +35,7 @@ from .controller import (
     remembered_action,
     remembered_actions_16,
 )
-from .kernels import borrowed, play_tick, sense_tick
+from .kernels import borrowed, forget_episode_rays, play_tick, sense_tick
 from .params import ORIGINAL_MAX_TICKS, TaskParams
 from .task import F_SIGNAL, HOME_REACHED, POI_CLOSE, H, V, X, Y, _manhattan
 
@@ -262,7 +262,7 @@ def _episode(b, state, arena, task, work, nets, brains, settings, starts, can_pl
     n = 0  # ticks played
     phase = _PATROL
     waited = 0  # ticks of the current phase
-    call = 0  # the robot called is order[call]
+    call = -1  # the robot called is order[call] (none during the patrol)
     k = 0
     while phase != _DONE:
         n = _tick(b, n, state, arena, task, work, nets, brains, seen, nobs, actions, hist, size_9, n_brains)
@@ -290,7 +290,6 @@ def _episode(b, state, arena, task, work, nets, brains, settings, starts, can_pl
                     stages[b, r, S_POST] = reached[r]
                     left[r] = records[b, r, REC_LEFT]
                 call_order(left, order)  # 2. call robots home one at a time, in the order they left
-                call = -1
                 next_call = True
         elif phase == _RETURN:
             if _manhattan(pose[b, k, X], pose[b, k, Y], home[0], home[1]) <= HOME_REACHED:
@@ -339,11 +338,7 @@ def _place_home(b, k, n, state, arena, task, work):
     pose[b, k, Y] = home[1]
     pose[b, k, H] = math.pi / 2
     pose[b, k, V] = 0.0
-    for r in range(pose.shape[1]):
-        for j in range(4):
-            work[1][b, r, j] = np.nan
-        work[0][b, r, 0] = 0.0
-        work[0][b, r, 1] = 0.0
+    forget_episode_rays(b, work)
     sense_tick(b, n + 1, state, arena, task, work)
 
 
