@@ -85,8 +85,8 @@ def _fidelity_and_robustness_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--noise-free-branch", type=float, metavar="B",
                    help="with --robust-from first_solution (map plus): before the robust phase, score every team on "
                         "two noise-free episodes, plus and a plus variant whose side arms leave the top arm at "
-                        "offsets drawn from [0, B] cm (new each generation), so a first solution also solves an "
-                        "asymmetric crossing (default 0: plus alone, the faithful run)")
+                        "offsets drawn from [0, B] cm (new each generation; drawn as --branch-sides says), so a first "
+                        "solution also solves an asymmetric crossing (default 0: plus alone, the faithful run)")
     p.add_argument("--diversity", type=float, metavar="W",
                    help="behavioural diversity: NEAT selects by fitness + W x the mean distance (cm) of a team's "
                         "robot end positions to its nearest teams in the generation (default 0: fitness alone, as "
@@ -173,6 +173,27 @@ def _eval_parser(sub) -> None:
                         "fraction of decisions that are exact ties or near-ties (< 0.001), a sign of a "
                         "team that noise or real robots will break")
     p.add_argument("--json", action="store_true", help="print the result as JSON")
+
+
+def _probe_parser(sub) -> None:
+    p = sub.add_parser("probe", help="which part of the test map a team handles: one noise-free sequential episode on "
+                                     "each plus variant that changes one thing (one-sided openings, arm lengths)")
+    p.add_argument("champion", type=Path, help="a champion.json (a run's best team, or one from its archive/)")
+    p.add_argument("--engine", default="pymunk", choices=["kinematic", "pymunk"],
+                   help="pymunk: robots bump into each other, as the transfer test (default); kinematic: the "
+                        "compiled simulator's motion")
+    p.add_argument("--only", nargs="+", metavar="PROBE", help="play only these probes (default: all)")
+    p.add_argument("--json", action="store_true", help="print the probes' results as JSON")
+
+
+def cmd_probe(args) -> int:
+    from .evaluation.probes import probe_summary, probe_team
+    from .training.champion import Champion
+
+    rows = probe_team(Champion.load(args.champion), engine=args.engine,
+                      names=tuple(args.only) if args.only else None)
+    print(json.dumps(rows, indent=1) if args.json else probe_summary(rows))
+    return 0
 
 
 def _generalize_parser(sub) -> None:
@@ -551,6 +572,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True)
     _train_parser(sub)
     _eval_parser(sub)
+    _probe_parser(sub)
     _generalize_parser(sub)
     _final_validation_parser(sub)
     _experiment_parser(sub)
@@ -572,6 +594,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             return cmd_train(args)
         if args.command == "eval":
             return cmd_eval(args)
+        if args.command == "probe":
+            return cmd_probe(args)
         if args.command == "generalize":
             return cmd_generalize(args)
         if args.command == "final-validation":

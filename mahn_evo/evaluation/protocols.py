@@ -22,6 +22,7 @@ from mahn_envs import patrol_return_v0
 from mahn_envs.core import TaskParams
 from mahn_envs.core.api import HOME_REACHED, POST_REACHED, manhattan
 from mahn_envs.core.sequential import SequentialSettings, assign_posts, call_order, sequential_task, stopped
+from mahn_envs.maps import World
 
 __all__ = ["SequentialSettings", "RobotRecord", "SequentialResult", "sequential_episode", "sequential",
            "sequential_summary", "SEQUENTIAL_STAGES"]
@@ -88,7 +89,7 @@ class _Runner:
         return bool(stopped(self.ring, len(self.history), k, self.s.stop_window, float(self.s.stop_distance)))
 
 
-def sequential_episode(policy, map: str = "plus", params: TaskParams | None = None, seed: int = 0,
+def sequential_episode(policy, map: str | World = "plus", params: TaskParams | None = None, seed: int = 0,
                        settings: SequentialSettings | None = None, record: bool = False,
                        frames: list | None = None, frame_every: int = 10, engine: str = "pymunk") -> SequentialResult:
     """One episode of the sequential protocol; RGB frames (every `frame_every` ticks) go to `frames` if given.
@@ -184,7 +185,7 @@ def sequential_summary(result: dict[str, Any], map: str) -> str:
     return "\n".join(lines)
 
 
-def sequential(policy, map: str = "plus", params: TaskParams | None = None, episodes: int = 1, seed: int = 0,
+def sequential(policy, map: str | World = "plus", params: TaskParams | None = None, episodes: int = 1, seed: int = 0,
                settings: SequentialSettings | None = None) -> dict[str, Any]:
     """Per-episode results of the sequential protocol.  `fitness` is the fraction of stages completed."""
     results = [sequential_episode(policy, map, params, seed + e, settings) for e in range(episodes)]

@@ -118,8 +118,13 @@ def _robust_text(plan: dict[str, Any]) -> str:
     text += _MEMORY_TEXT.get(plan.get("fitness_memory", "generation"), "")
     if plan.get("robust_from", "start") == "first_solution":
         clean_branch = float(plan.get("noise_free_branch", 0.0))
-        on = (f" (on plus and on a plus variant with side arms leaving the top arm [0, {clean_branch:g}] cm above "
-              f"the crossing, new each generation: `--noise-free-branch {clean_branch:g}`)") if clean_branch else ""
+        if plan.get("branch_sides", "both") in ("one", "one_short"):
+            shape = (f"one side arm at the crossing and the other leaving the top arm [29.53, {clean_branch:g}] cm "
+                     f"above it{', shorter by that offset' if plan.get('branch_sides') == 'one_short' else ''}")
+        else:
+            shape = f"side arms leaving the top arm [0, {clean_branch:g}] cm above the crossing"
+        on = (f" (on plus and on a plus variant with {shape}, new each generation: `--noise-free-branch "
+              f"{clean_branch:g}`)") if clean_branch else ""
         return (f"; noise-free{on} until a run's first solution and {plan.get('robust_delay', 0)} generation(s) "
                 f"more, then {text}")
     return f"; {text}"

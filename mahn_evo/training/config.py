@@ -112,9 +112,10 @@ class EvolutionConfig:
     robust_from: str = "start"
     #: with robust_from "first_solution": B > 0 cm scores every team of the noise-free phase on two noise-free
     #: episodes, one on `map` (plus) and one on a plus variant whose side arms leave the top arm at offsets drawn from
-    #: [0, B] (a new variant each generation, the same for all its teams): exactly the evaluation of `--episodes 2
-    #: --map-branch B --plain-episodes 1 --noise-draws per_generation` without noise, so such a run can be hardened
-    #: by resuming it.  A first solution then solves plus and an asymmetric crossing.  Why: hardening after a
+    #: [0, B] (a new variant each generation, the same for all its teams; with branch_sides "one" or "one_short"
+    #: drawn that way, for both phases): exactly the evaluation of `--episodes 2 --map-branch B --branch-sides
+    #: SIDES --plain-episodes 1 --noise-draws per_generation` without noise, so such a run can be hardened by
+    #: resuming it.  A first solution then solves plus and an asymmetric crossing.  Why: hardening after a
     #: first solution on plus alone left the test map's branch where it was (docs/results/
     #: experiment_fresh_seeds_hardened/), so the turn rule has to meet a branch before the solution fixes it.
     noise_free_branch: float = 0.0
@@ -186,7 +187,7 @@ class EvolutionConfig:
                              f"{self.robust_delay} (docs/results/experiment_harden/ used 250 with delay 50)")
         if self.noise_free_branch != 0.0:
             try:
-                check_branch(self.noise_free_branch)
+                check_branch(self.noise_free_branch, 0.0, self.branch_sides)
             except ValueError as e:
                 raise ValueError(f"noise_free_branch is the map_branch of the noise-free phase: {e}") from None
             if self.robust_from != "first_solution":
@@ -240,8 +241,9 @@ class EvolutionConfig:
     def noise_free_evaluation(self) -> EvaluationSettings:
         """The evaluation before the first solution when robust_from is "first_solution": one noise-free episode,
         field for field that of the same run without noise (so that phase is bit-identical to it); with
-        noise_free_branch B, two: on the map and on a branch variant, as the noise-free run with episodes 2,
-        map_branch B, plain_episodes 1 and per-generation draws."""
+        noise_free_branch B, two: on the map and on a branch variant drawn as `branch_sides` says, as the
+        noise-free run with episodes 2, map_branch B, the same branch_sides, plain_episodes 1 and per-generation
+        draws."""
         task = self.task.without_noise()
         if self.reflex_arc_from == "robust_phase":
             task = replace(task, reflex_arc=False)
@@ -251,7 +253,7 @@ class EvolutionConfig:
         if self.noise_free_branch == 0.0:
             return clean
         return replace(clean, episodes=2, noise_draws="per_generation", map_branch=self.noise_free_branch,
-                       plain_episodes=1)
+                       branch_sides=self.branch_sides, plain_episodes=1)
 
     @property
     def n_cppn_inputs(self) -> int:

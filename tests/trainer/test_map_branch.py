@@ -277,3 +277,29 @@ def test_one_short_branches_keep_each_post_as_far_from_home_as_on_plus():
     plan = {"map_branch": 49.0, "branch_sides": "one_short", "noise": "generalization", "episodes": 3}
     assert "above it, shorter by that offset (`--map-branch 49 --branch-sides one_short`)" in _robust_text(
         {**experiment_plan(build_parser().parse_args(["experiment", "--out", "x"])).to_dict(), **plan})
+
+
+def test_noise_free_branch_draws_its_variants_as_branch_sides_says_so_a_one_sided_screen_can_be_hardened():
+    """A noise-free screen on plus and one one_short variant per generation (`--episodes 2 --map-branch 49
+    --branch-sides one_short --plain-episodes 1 --noise-draws per_generation`) is the noise-free phase of the
+    hardening plan with `--noise-free-branch 49` and the same branch sides: that plan hardens its folder."""
+    parser = build_parser()
+    screen = experiment_plan(parser.parse_args(
+        "experiment --out x --modes situational --runs 2 --seed 1 --preset best-restarts --generations 300 "
+        "--episodes 2 --map-branch 49 --branch-sides one_short --plain-episodes 1 --noise-draws per_generation"
+        .split()))
+    harden = experiment_plan(parser.parse_args(
+        "experiment --out x --modes situational --runs 2 --seed 1 --preset best-restarts --generations 300 "
+        "--noise generalization --episodes 3 --noise-draws per_generation --noise-free-episode --map-branch 49 "
+        "--branch-sides one_short --plain-episodes 1 --sequential-episodes 1 --noise-free-branch 49 "
+        "--robust-from first_solution --robust-delay 50 --after-solved 150 --fitness-memory lifetime".split()))
+    clean = harden.train_config("situational", 1).noise_free_evaluation
+    assert clean == screen.train_config("situational", 1).evaluation
+    assert (clean.branch_sides, clean.map_branch, clean.episodes) == ("one_short", 49.0, 2)
+    assert harden.hardens(screen)
+    assert ("noise-free (on plus and on a plus variant with one side arm at the crossing and the other leaving the "
+            "top arm [29.53, 49] cm above it, shorter by that offset, new each generation: `--noise-free-branch 49`)"
+            in _robust_text(harden.to_dict()))
+    # one-sided openings need an offset above the corridor width, in the noise-free phase too
+    with pytest.raises(ValueError, match="noise_free_branch is the map_branch of the noise-free phase"):
+        harden.train_config("situational", 1).with_overrides(noise_free_branch=20.0)
