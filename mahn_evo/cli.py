@@ -230,6 +230,11 @@ def _final_validation_parser(sub) -> None:
     p.add_argument("--sequential-episodes", type=int, default=10,
                    help="sequential-protocol episodes per team with --sequential (default %(default)s; seeds from "
                         "2^30, never the transfer test's)")
+    p.add_argument("--family-episodes", type=int, default=0, metavar="F",
+                   help="with --sequential (a run trained on plus variants): those teams also play F noisy "
+                        "sequential episodes on the run's own variants (keys never trained on), and the choice "
+                        "counts both: success on the training family predicts the test map (default 0: the map "
+                        "alone)")
 
 
 def cmd_final_validation(args) -> int:
@@ -237,13 +242,16 @@ def cmd_final_validation(args) -> int:
 
     for run in args.run_dirs:
         record = validate_final_population(run, episodes=args.episodes, sequential_teams=args.sequential,
-                                           sequential_episodes=args.sequential_episodes)
+                                           sequential_episodes=args.sequential_episodes,
+                                           family_episodes=args.family_episodes)
         chosen = record["chosen"]
         if chosen is None:
             print(f"{run}: no team of generation {record['generation']} solves the noise-free task; nothing archived")
         else:
             seq = (f"; {chosen['sequential_successes']} of {record['sequential']['episodes']} sequential episodes"
                    if "sequential" in record else "")
+            if "family_successes" in chosen:
+                seq += f" and {chosen['family_successes']} of {args.family_episodes} on its plus variants"
             print(f"{run}: {chosen['file']} (reading {chosen['reading']}): solved {chosen['solved_fraction']:.2f} "
                   f"of {record['episodes']} validation episodes, mean fitness {chosen['mean_fitness']:.1f}{seq}")
     return 0
@@ -285,6 +293,10 @@ def _experiment_parser(sub) -> None:
                    help="with --final-validation: its T best teams also play 10 noisy episodes of the sequential "
                         "protocol on the training map and the most successful is archived (`mahn-evo "
                         f"final-validation --sequential T`; default {d.final_sequential}: none)")
+    p.add_argument("--final-family", type=int, metavar="F",
+                   help="with --final-sequential (runs trained on plus variants): those teams also play F noisy "
+                        "sequential episodes on the run's own variants and the choice counts both (`mahn-evo "
+                        f"final-validation --family-episodes F`; default {d.final_family}: none)")
     p.add_argument("--max-cycles", type=int, default=d.max_cycles, help=argparse.SUPPRESS)
     p.add_argument("--signal-tick", type=int, default=d.signal_tick, help=argparse.SUPPRESS)
     p.add_argument("--config", type=Path, help="TOML or JSON file whose `neat` table overrides NEAT settings")
@@ -364,7 +376,8 @@ def experiment_plan(args: argparse.Namespace) -> ExperimentPlan:
 def _analysis_options(args) -> dict[str, Any]:
     """The report's options as given on the command line (None: not given)."""
     return {"top": args.top, "general_episodes": args.general_episodes, "transfer_episodes": args.transfer_episodes,
-            "final_validation": args.final_validation, "final_sequential": args.final_sequential}
+            "final_validation": args.final_validation, "final_sequential": args.final_sequential,
+            "final_family": args.final_family}
 
 
 def cmd_experiment(args) -> int:

@@ -20,6 +20,8 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
+from mahn_envs.maps.variants import spread_variant
+
 from ..hyperneat.substrate import READINGS, team_reading
 from ..hyperneat.team_evaluator import TeamEvaluator
 from ..neat.population import Population
@@ -28,13 +30,18 @@ from ..training.champion import Champion
 from ..training.config import EvolutionConfig
 from .eval_champion import champion_policy
 from .generalize import keyed_episodes
-from .protocols import sequential
+from .protocols import sequential, sequential_episode
 from .task_setup import task_params
 
 #: the first validation episode's key (training keys are generation * K + e, far below)
 VALIDATION_KEY = 1 << 40
 #: the first seed of the sequential stage's episodes (the transfer test's are the experiment's seed + 0, 1, ...)
 SEQUENTIAL_SEED = 1 << 30
+#: the first key of the family stage's plus variants (`spread_variant(seed, key, ...)`): above the validation keys,
+#: far from the training episodes' (generation x episodes) and the sequential ones' (2**31 + ...)
+FAMILY_KEY = 1 << 41
+#: the first seed of the family stage's sequential episodes (beside the sequential stage's SEQUENTIAL_SEED + e)
+FAMILY_SEED = SEQUENTIAL_SEED + (1 << 20)
 KIND = "final_validation"
 
 
@@ -54,10 +61,15 @@ def final_population(run_dir: str | Path) -> tuple[EvolutionConfig, Population]:
 
 
 def validate_final_population(run_dir: str | Path, episodes: int = 25, sequential_teams: int = 0,
-                              sequential_episodes: int = 10, write: bool = True) -> dict[str, Any]:
+                              sequential_episodes: int = 10, family_episodes: int = 0, write: bool = True
+                              ) -> dict[str, Any]:
     """Score every team of the run's final population (every reading with symmetry "best") on `episodes` noisy
     validation episodes; with `sequential_teams` T > 0, play the T best noise-free solutions of that ranking
-    through `sequential_episodes` noisy episodes of the sequential protocol on the run's map and choose by those.
+    through `sequential_episodes` noisy episodes of the sequential protocol on the run's map and choose by those;
+    with `family_episodes` F > 0 (a run trained on plus variants), each of them also plays F such episodes on
+    the run's own variants (keys from FAMILY_KEY, never trained on) and the choice counts both.  Why: a team's
+    successes on its training family predict the test map, where its successes on the map itself do not
+    (docs/results/turn_probes/: picks with 8-10 of 10 on plus and 0-1 on the test map all score 0-1 on the family).
     With `write`, archive the chosen team as archive/solution_final_gGGGGG_iIIII.json and record the ranking in
     final_validation.json.  Returns that record ("chosen" is None when no team of the population solves the
     noise-free task)."""
@@ -66,8 +78,17 @@ def validate_final_population(run_dir: str | Path, episodes: int = 25, sequentia
             raise ValueError(f"{name} must be a positive integer, got {v!r}")
     if isinstance(sequential_teams, bool) or not isinstance(sequential_teams, int) or sequential_teams < 0:
         raise ValueError(f"sequential_teams must be a non-negative integer, got {sequential_teams!r}")
+    if isinstance(family_episodes, bool) or not isinstance(family_episodes, int) or family_episodes < 0:
+        raise ValueError(f"family_episodes must be a non-negative integer, got {family_episodes!r}")
+    if family_episodes and not sequential_teams:
+        raise ValueError("family_episodes plays the sequential stage's teams on the run's plus variants: give "
+                         "sequential_teams (--sequential T) too")
     run = Path(run_dir)
     config, population = final_population(run)
+    ev = config.evaluation
+    if family_episodes and not ev.on_variants:
+        raise ValueError(f"run {str(run)!r} trained on its map alone (no --map-spread or --map-branch): it has no "
+                         "family of plus variants to validate on (family_episodes)")
     genomes = population.genomes
     controllers = TeamEvaluator(config.evaluation).decode(genomes)
     readings = READINGS if config.symmetry == "best" else ("none",)
@@ -99,16 +120,32 @@ def validate_final_population(run_dir: str | Path, episodes: int = 25, sequentia
     candidates = [r for r in rows if r["noise_free_solved"]]
     if sequential_teams:
         candidates = candidates[:sequential_teams]
+        worlds = [spread_variant(config.seed, FAMILY_KEY + i, ev.map_spread, ev.map_branch, ev.branch_sides)
+                  for i in range(family_episodes)]
         for row in candidates:
             champ = champion(row)
             result = sequential(champion_policy(champ), map=config.map, params=champ.task(task_params(
                 "generalization")), episodes=sequential_episodes, seed=SEQUENTIAL_SEED)
             row["sequential_successes"] = int(sum(result["solved"]))
             row["sequential_stages"] = float(sum(result["fitness"]) / sequential_episodes)
-        candidates.sort(key=lambda r: (-r["sequential_successes"], -r["sequential_stages"]))  # stable: then rows
+            if family_episodes:
+                family = [sequential_episode(champion_policy(champ), world, champ.task(task_params("generalization")),
+                                             seed=FAMILY_SEED + i) for i, world in enumerate(worlds)]
+                row["family_successes"] = sum(int(f.success) for f in family)
+                row["family_stages"] = float(sum(f.score for f in family) / family_episodes)
+
+        def choice(r: dict[str, Any]) -> tuple[float, float]:
+            if not family_episodes:
+                return -r["sequential_successes"], -r["sequential_stages"]
+            return (-(r["sequential_successes"] + r["family_successes"]),
+                    -(r["sequential_stages"] * sequential_episodes + r["family_stages"] * family_episodes))
+        candidates.sort(key=choice)  # stable: then the rows' order
         record["sequential"] = {"teams": sequential_teams, "episodes": sequential_episodes,
                                 "first_seed": SEQUENTIAL_SEED, "map": config.map, "noise": "generalization",
                                 "ranking": candidates}
+        if family_episodes:
+            record["sequential"]["family"] = {"episodes": family_episodes, "first_key": FAMILY_KEY,
+                                              "first_seed": FAMILY_SEED, "maps": [w.name for w in worlds]}
     best = candidates[0] if candidates else None
     if best is not None:
         name = f"solution_final_g{gen:05d}_i{best['index']:04d}.json"

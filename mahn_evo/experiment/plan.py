@@ -30,7 +30,8 @@ EVOLUTION_FIELDS = ("init", "evaluate_modules", "cppn_activation", "decision", "
                     "restart_every", "map", "after_solved")
 
 #: the report's options: they choose what is tested after the runs, so they may change in an experiment's folder
-REPORT_OPTIONS = ("top", "general_episodes", "transfer_episodes", "final_validation", "final_sequential")
+REPORT_OPTIONS = ("top", "general_episodes", "transfer_episodes", "final_validation", "final_sequential",
+                  "final_family")
 
 
 @dataclass(frozen=True)
@@ -77,6 +78,9 @@ class ExperimentPlan:
     #: with final_validation: its T best teams also play the sequential protocol under noise on the training map,
     #: and the one that succeeds most often is archived (0: choose by the training protocol alone)
     final_sequential: int = 0
+    #: with final_sequential: those teams also play F noisy sequential episodes on the run's own plus variants
+    #: (runs with map_spread or map_branch), and the choice counts both (0: the training map alone)
+    final_family: int = 0
     replays: int = 1  # most general solutions per mode filmed in each protocol and map (GIFs)
     reflex_arc: bool = False  # the arcing reflex (TaskParams.reflex_arc), beyond the paper
     reflex_arc_from: str = "start"  # or "robust_phase" (see EvolutionConfig.reflex_arc_from)
@@ -99,10 +103,13 @@ class ExperimentPlan:
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, int) or v < 1:
                 raise ValueError(f"{name} must be a positive integer, got {v!r}")
-        for name in ("seed", "after_solved", "replays", "final_validation", "final_sequential"):
+        for name in ("seed", "after_solved", "replays", "final_validation", "final_sequential", "final_family"):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, int) or v < 0:
                 raise ValueError(f"{name} must be a non-negative integer, got {v!r}")
+        if self.final_family and not self.final_sequential:
+            raise ValueError("final_family plays the sequential stage's teams on the runs' plus variants: give "
+                             "final_sequential (--final-sequential T) too")
         if self.final_sequential and not self.final_validation:
             raise ValueError("final_sequential chooses among the final validation's best teams: give final_validation "
                              "(--final-validation N) too")

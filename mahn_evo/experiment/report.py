@@ -184,8 +184,10 @@ def markdown(results: dict[str, Any]) -> str:
               + (f"Each run's archive also holds the best noise-free solution of its final population on "
                  f"{plan['final_validation']} validation episodes of its own (`mahn-evo final-validation`)"
                  + (f"; of its {plan['final_sequential']} best, the one that succeeds most often in 10 noisy "
-                    "episodes of the sequential protocol on the training map (seeds of their own)"
-                    if plan.get("final_sequential") else "") + ". "
+                    "episodes of the sequential protocol on the training map"
+                    + (f" and {plan['final_family']} on plus variants of its training family (`--final-family "
+                       f"{plan['final_family']}`)" if plan.get("final_family") else "")
+                    + " (seeds of their own)" if plan.get("final_sequential") else "") + ". "
                  if plan.get("final_validation") else "") +
               "`training`: all robots called at tick 690 (team fitness, solved). `sequential`: the real-world "
               "protocol in the pymunk engine (robots called home one at a time, sent back out); success = every "

@@ -54,13 +54,17 @@ def validate_final_populations(plan: ExperimentPlan, runs: list[RunRecord], log:
             continue
         if record.exists():
             saved = read_versioned_json(record, FINAL_KIND)
-            if (saved.get("episodes"), saved.get("generation"), saved.get("sequential", {}).get("teams", 0)) == \
-                    (plan.final_validation, r.generations, plan.final_sequential):
+            stage = saved.get("sequential", {})
+            if (saved.get("episodes"), saved.get("generation"), stage.get("teams", 0),
+                    stage.get("family", {}).get("episodes", 0)) == \
+                    (plan.final_validation, r.generations, plan.final_sequential, plan.final_family):
                 continue  # validated so since the run last changed (a longer run validates again)
-        validate_final_population(r.folder, episodes=plan.final_validation, sequential_teams=plan.final_sequential)
+        validate_final_population(r.folder, episodes=plan.final_validation, sequential_teams=plan.final_sequential,
+                                  family_episodes=plan.final_family)
         done += 1
     if done:
         seq = f", the best {plan.final_sequential} in the sequential protocol" if plan.final_sequential else ""
+        seq += f" on the map and {plan.final_family} of its plus variants" if plan.final_family else ""
         log(f"final validation ({plan.final_validation} episodes{seq}) of {done} run(s)")
 
 

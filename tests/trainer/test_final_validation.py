@@ -10,6 +10,8 @@ import pytest
 from mahn_evo.cli import main
 from mahn_evo.evaluation.eval_champion import champion_policy
 from mahn_evo.evaluation.final_population import (
+    FAMILY_KEY,
+    FAMILY_SEED,
     SEQUENTIAL_SEED,
     VALIDATION_KEY,
     final_population,
@@ -126,3 +128,43 @@ def test_the_sequential_stage_chooses_the_team_that_survives_the_real_world_prot
         validate_final_population(run, sequential_teams=-1)
     with pytest.raises(ValueError, match="sequential_episodes must be a positive integer"):
         validate_final_population(run, sequential_teams=1, sequential_episodes=0)
+
+
+SEQ1 = Path(__file__).parents[2] / "docs" / "results" / "experiment_sequential_seeds_1_15" / "champions"
+
+
+def test_the_family_stage_chooses_the_team_that_turns_where_one_side_opens(tmp_path, capsys):
+    """seq1's seed 3 pick (no turn where one side opens alone: 10 of 10 validation episodes on plus, 1 of 10 on the
+    test map) and seed 15's (turns: 10 of 10 on both) planted in the final population of a run trained on one-sided
+    variants: both succeed on plus (2 of 2 sequential episodes each); on the run's own variants only seed 15's does,
+    and the family stage ranks by both."""
+    out = tmp_path / "variants"
+    assert main(["train", "--preset", "best-restarts", "--generations", "1", "--pop", "12", "--seed", "5", "--quiet",
+                 "--episodes", "2", "--map-branch", "49", "--branch-sides", "one_short", "--plain-episodes", "1",
+                 "--noise-draws", "per_generation", "--out", str(out)]) == 0
+    _plant(out, SEQ1 / "situational_s003.json", 2)
+    _plant(out, SEQ1 / "situational_s015.json", 7)
+    plain = validate_final_population(out, episodes=3, write=False)
+    teams = sum(r["noise_free_solved"] for r in plain["top"])
+    record = validate_final_population(out, episodes=3, sequential_teams=teams, sequential_episodes=2,
+                                       family_episodes=3)
+    family = record["sequential"]["family"]
+    assert (family["episodes"], family["first_key"], family["first_seed"]) == (3, FAMILY_KEY, FAMILY_SEED)
+    assert len(family["maps"]) == 3 and all(name.startswith("plus_arms_") for name in family["maps"])
+    ranking = record["sequential"]["ranking"]
+    totals = [r["sequential_successes"] + r["family_successes"] for r in ranking]
+    assert totals == sorted(totals, reverse=True)
+    by_team = {i: max(r["family_successes"] for r in ranking if r["index"] == i) for i in (2, 7)}
+    assert by_team[7] >= 2 and by_team[2] == 0
+    assert record["chosen"]["index"] == 7
+    assert main(["final-validation", str(out), "--episodes", "3", "--sequential", str(teams),
+                 "--sequential-episodes", "2", "--family-episodes", "3"]) == 0
+    assert f"and {record['chosen']['family_successes']} of 3 on its plus variants" in capsys.readouterr().out
+    # a run trained on its map alone has no family; the family stage needs the sequential one
+    plus_only = _tiny_run(tmp_path)
+    with pytest.raises(ValueError, match="no family of plus variants"):
+        validate_final_population(plus_only, sequential_teams=1, family_episodes=2)
+    with pytest.raises(ValueError, match="give sequential_teams"):
+        validate_final_population(out, family_episodes=2)
+    with pytest.raises(ValueError, match="family_episodes must be a non-negative integer"):
+        validate_final_population(out, sequential_teams=1, family_episodes=-1)
