@@ -70,8 +70,8 @@ def validate_final_population(run_dir: str | Path, episodes: int = 25, sequentia
     the run's own variants (keys from FAMILY_KEY, never trained on) and the choice counts both.  Why: a team's
     successes on its training family predict the test map, where its successes on the map itself do not
     (docs/results/turn_probes/: picks with 8-10 of 10 on plus and 0-1 on the test map all score 0-1 on the family).
-    With `write`, archive the chosen team as archive/solution_final_gGGGGG_iIIII.json and record the ranking in
-    final_validation.json.  Returns that record ("chosen" is None when no team of the population solves the
+    With `write`, archive the chosen team as archive/solution_final_gGGGGG_iIIII.json (replacing the pick of an
+    earlier validation of the same generation) and record the ranking in final_validation.json.  Returns that record ("chosen" is None when no team of the population solves the
     noise-free task)."""
     for name, v in (("episodes", episodes), ("sequential_episodes", sequential_episodes)):
         if isinstance(v, bool) or not isinstance(v, int) or v < 1:
@@ -154,4 +154,10 @@ def validate_final_population(run_dir: str | Path, episodes: int = 25, sequentia
             champion(best).save(run / "archive" / name)
     if write:
         atomic_write_json(run / "final_validation.json", versioned(KIND, record))
+        # a pick of an earlier validation of this same population (other settings) leaves the archive: it would
+        # otherwise compete with this one in the generalisation ranking the report draws its teams from
+        chosen_name = None if best is None else f"solution_final_g{gen:05d}_i{best['index']:04d}.json"
+        for old in (run / "archive").glob(f"solution_final_g{gen:05d}_i*.json"):
+            if old.name != chosen_name:
+                old.unlink()
     return record

@@ -157,6 +157,12 @@ def test_the_family_stage_chooses_the_team_that_turns_where_one_side_opens(tmp_p
     by_team = {i: max(r["family_successes"] for r in ranking if r["index"] == i) for i in (2, 7)}
     assert by_team[7] >= 2 and by_team[2] == 0
     assert record["chosen"]["index"] == 7
+    # validating the same population again with other settings replaces its pick in the archive
+    _plant(out, SEQ1 / "situational_s003.json", 7)
+    again = validate_final_population(out, episodes=3, sequential_teams=1, sequential_episodes=1)
+    picks = sorted(p.name for p in (out / "archive").glob("solution_final_*.json"))
+    assert picks == [again["chosen"]["file"].split("/")[-1]]
+    _plant(out, SEQ1 / "situational_s015.json", 7)
     assert main(["final-validation", str(out), "--episodes", "3", "--sequential", str(teams),
                  "--sequential-episodes", "2", "--family-episodes", "3"]) == 0
     assert f"and {record['chosen']['family_successes']} of 3 on its plus variants" in capsys.readouterr().out
