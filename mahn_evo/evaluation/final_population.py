@@ -71,8 +71,8 @@ def validate_final_population(run_dir: str | Path, episodes: int = 25, sequentia
     successes on its training family predict the test map, where its successes on the map itself do not
     (docs/results/turn_probes/: picks with 8-10 of 10 on plus and 0-1 on the test map all score 0-1 on the family).
     With `write`, archive the chosen team as archive/solution_final_gGGGGG_iIIII.json (replacing the pick of an
-    earlier validation of the same generation) and record the ranking in final_validation.json.  Returns that record ("chosen" is None when no team of the population solves the
-    noise-free task)."""
+    earlier validation of the same generation) and record the ranking in final_validation.json.  Returns that
+    record ("chosen" is None when no team of the population solves the noise-free task)."""
     for name, v in (("episodes", episodes), ("sequential_episodes", sequential_episodes)):
         if isinstance(v, bool) or not isinstance(v, int) or v < 1:
             raise ValueError(f"{name} must be a positive integer, got {v!r}")
