@@ -86,7 +86,9 @@ PROBES: tuple[Probe, ...] = (
 def probe_team(champion: Champion, engine: str = "pymunk", names: tuple[str, ...] | None = None
                ) -> list[dict[str, Any]]:
     """One noise-free sequential-protocol episode of the team per probe (all, or those `names`): per probe its
-    fields, `stages` (of 3 per robot), `success` and, per robot, (post, reached it, came home, went back out)."""
+    fields, `stages` (of 3 per robot), `success`, `posts` (robots that reached their own post in the patrol: all
+    of them on a turn probe means the team turned there) and, per robot, (post, reached it, came home, went back
+    out)."""
     known = {p.name: p for p in PROBES}
     if names is not None:
         unknown = [n for n in names if n not in known]
@@ -97,24 +99,31 @@ def probe_team(champion: Champion, engine: str = "pymunk", names: tuple[str, ...
         result = sequential_episode(champion_policy(champion), probe.world(), champion.task(), seed=0,
                                     engine=engine)
         rows.append({**asdict(probe), "stages": result.stages_completed, "possible": 3 * len(result.robots),
-                     "success": result.success,
+                     "success": result.success, "posts": sum(r.reached_post for r in result.robots),
                      "robots": [[r.post, r.reached_post, r.returned_home, r.went_back_out] for r in result.robots]})
     return rows
 
 
+def all_posts(row: dict[str, Any]) -> bool:
+    """Whether every robot reached its own post in the probe's patrol (on a turn probe: the team turned there)."""
+    return row["posts"] == row["possible"] // 3
+
+
 def probe_summary(rows: list[dict[str, Any]]) -> str:
-    """The probe table for people, and what it says: which one-sided openings the team turns at and which arm
-    lengths it handles."""
-    lines = [f"{'probe':<16} {'stages':>7}  result   what changes"]
+    """The probe table for people, and what it says: at which one-sided openings the team turns (every robot
+    reaches its post) and which arm lengths it handles; and where it also completes the whole protocol."""
+    lines = [f"{'probe':<16} {'posts':>5} {'stages':>7}  result   what changes"]
     for r in rows:
-        lines.append(f"{r['name']:<16} {r['stages']:>3}/{r['possible']:<3}  {'success' if r['success'] else 'fail':7}"
-                     f"  {r['description']}")
+        lines.append(f"{r['name']:<16} {r['posts']:>3}/{r['possible'] // 3:<1} {r['stages']:>3}/{r['possible']:<3}  "
+                     f"{'success' if r['success'] else 'fail':7}  {r['description']}")
     for side in ("left", "right"):
         turns = [r for r in rows if r["kind"] == "turn" and r["name"].startswith(side)]
         if turns:
-            ok = sum(r["success"] for r in turns)
-            lines.append(f"turns where only the {side} side opens: {ok} of {len(turns)} probes")
+            lines.append(f"turns where only the {side} side opens (every post reached): "
+                         f"{sum(all_posts(r) for r in turns)} of {len(turns)} probes, whole protocol in "
+                         f"{sum(r['success'] for r in turns)}")
     lengths = [r for r in rows if r["kind"] == "length"]
     if lengths:
-        lines.append(f"handles other arm lengths: {sum(r['success'] for r in lengths)} of {len(lengths)} probes")
+        lines.append(f"other arm lengths: every post reached in {sum(all_posts(r) for r in lengths)} of "
+                     f"{len(lengths)} probes, whole protocol in {sum(r['success'] for r in lengths)}")
     return "\n".join(lines)

@@ -8,10 +8,12 @@ import pytest
 from mahn_envs.maps import load_map
 from mahn_envs.maps.variants import PLUS_ARM
 from mahn_evo.cli import main
-from mahn_evo.evaluation.probes import PROBES, probe_summary, probe_team
+from mahn_evo.evaluation.probes import PROBES, all_posts, probe_summary, probe_team
 from mahn_evo.training.champion import Champion
 
 CHAMPIONS = Path(__file__).resolve().parents[2] / "docs/results/experiment_sequential_seeds_1_15/champions"
+#: a first solution of the noise-free phase on plus and one-sided variants (seed 5, generation 189)
+FIRST_TURNS_RIGHT = Path(__file__).resolve().parent / "fixtures" / "first_solution_turns_right_only.json"
 
 
 def test_each_probe_changes_one_thing_of_plus():
@@ -41,10 +43,21 @@ def test_a_team_that_waits_for_both_sides_fails_every_one_sided_opening_and_not_
     assert result["left_raised_30"] == result["right_raised_45"] == result["asymmetric_plus"] == (False, 1)
     # the one robot that reached a post: all three went to the top arm's
     assert all(post == 1 for post, *_ in next(r for r in rows if r["name"] == "asymmetric_plus")["robots"])
+    assert [r["posts"] for r in rows] == [3, 1, 1, 3, 1]
     text = probe_summary(rows)
-    assert "turns where only the left side opens: 0 of 1 probes" in text
-    assert "turns where only the right side opens: 0 of 1 probes" in text
-    assert "handles other arm lengths: 1 of 1 probes" in text
+    assert "turns where only the left side opens (every post reached): 0 of 1 probes, whole protocol in 0" in text
+    assert "turns where only the right side opens (every post reached): 0 of 1 probes, whole protocol in 0" in text
+    assert "other arm lengths: every post reached in 1 of 1 probes, whole protocol in 1" in text
+
+
+def test_a_team_that_turns_but_misses_a_later_stage_counts_as_turning():
+    # the noise-free branch screen's seed 5 first solution turns where the right side opens alone (every robot
+    # reaches its post) and then misses one later stage: the turn counts, the protocol does not
+    rows = probe_team(Champion.load(FIRST_TURNS_RIGHT), engine="kinematic", names=("right_raised_30",
+                                                                                 "left_raised_30"))
+    right, left = rows
+    assert all_posts(right) and not right["success"] and right["stages"] == 8
+    assert not all_posts(left)
 
 
 def test_the_robust_team_turns_where_one_side_opens():
