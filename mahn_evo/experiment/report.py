@@ -114,7 +114,11 @@ def _robust_text(plan: dict[str, Any]) -> str:
     text = (f"teams scored on {plan['episodes']} episode(s) with the `{plan['noise']}` noise{maps} "
             f"({plan['noise_draws']} draws, {plan['aggregate']} aggregate"
             f"{', plus one noise-free episode' if plan.get('noise_free_episode') else ''}"
-            f"{' on the map itself' if plan.get('noise_free_episode') and maps else ''})")
+            f"{' on the map itself' if plan.get('noise_free_episode') and maps else ''}"
+            + (f", {plan['noise_free_variants']} noise-free episode(s) on plus variants (`--noise-free-variants "
+               f"{plan['noise_free_variants']}`)" if plan.get("noise_free_variants") else "")
+            + (f", {plan['sequential_episodes']} episode(s) of the sequential protocol (`--sequential-episodes "
+               f"{plan['sequential_episodes']}`)" if plan.get("sequential_episodes") else "") + ")")
     text += _MEMORY_TEXT.get(plan.get("fitness_memory", "generation"), "")
     if plan.get("robust_from", "start") == "first_solution":
         clean_branch = float(plan.get("noise_free_branch", 0.0))

@@ -91,6 +91,13 @@ class EvaluationSettings:
     #: hardened on noisy training episodes can still fail the noisy sequential protocol, the robustness test
     #: (docs/results/experiment_lifetime_seeds_1_15/)
     sequential_episodes: int = 0
+    #: 0: the variants are met under the task's noise only.  N > 0 (with map_spread or map_branch): each team also
+    #: plays N noise-free training episodes per generation on plus variants of keys of their own (CLEAN_VARIANT_KEY,
+    #: fresh per generation with per-generation draws), aggregated with the others.  Why: under noise the training
+    #: protocol barely separates a team that turns where one side arm opens alone from one that does not (a
+    #: non-turner scores 71-101 on a raised-right variant, a turner 47-52) while noise-free it scores 3 against 166,
+    #: and hardening lost the turn in 3 of 15 runs (docs/results/turn_probes/)
+    noise_free_variants: int = 0
 
     @property
     def on_variants(self) -> bool:
@@ -137,6 +144,12 @@ class EvaluationSettings:
         if isinstance(self.sequential_episodes, bool) or not isinstance(self.sequential_episodes, int) \
                 or self.sequential_episodes < 0:
             raise ValueError(f"sequential_episodes must be a non-negative integer, got {self.sequential_episodes!r}")
+        if isinstance(self.noise_free_variants, bool) or not isinstance(self.noise_free_variants, int) \
+                or self.noise_free_variants < 0:
+            raise ValueError(f"noise_free_variants must be a non-negative integer, got {self.noise_free_variants!r}")
+        if self.noise_free_variants and not self.on_variants:
+            raise ValueError("noise_free_variants plays noise-free episodes on plus variants: it needs map_spread or "
+                             "map_branch > 0")
         if not isinstance(self.seed, int):  # not numpy ints either: a run's configuration is saved as JSON
             raise TypeError(f"seed must be an integer in [0, 2**64), got {self.seed!r}")
         check_seed(self.seed, "seed")
@@ -144,6 +157,8 @@ class EvaluationSettings:
 
 #: the first key of the sequential-protocol episodes (below 2**32: start jitter is drawn from the key's low 32 bits)
 SEQUENTIAL_KEY = 1 << 31
+#: the first key of the noise-free variant episodes (noise_free_variants), beside the keyed and sequential ones
+CLEAN_VARIANT_KEY = 3 << 30
 #: a successful sequential episode scores as an ideal training episode (one robot to each post and back: 166.5)
 SEQUENTIAL_SUCCESS_FITNESS = 166.5
 
@@ -268,6 +283,18 @@ class TeamEvaluator:
             self._clean_sims = {n: BatchSim(self.world, n, self.settings.task.without_noise())}
         return self._clean_sims[n]
 
+    def _clean_variant_sim(self, key: int, n: int) -> BatchSim:
+        """The simulator of noise-free variant episode `key` for n teams: the key's plus variant, no noise."""
+        s = self.settings
+        return BatchSim(spread_variant(s.seed, key, s.map_spread, s.map_branch, s.branch_sides), n,
+                        s.task.without_noise())
+
+    def clean_variant_keys(self, generation: int = 0) -> list[int]:
+        """The keys of the noise-free variant episodes every team of `generation` plays (noise_free_variants)."""
+        k = self.settings.noise_free_variants
+        first = CLEAN_VARIANT_KEY + (generation * k if self.settings.noise_draws == "per_generation" else 0)
+        return list(range(first, first + k))
+
     def _sequential_sim(self, key: int, n: int) -> BatchSim:
         """The simulator of sequential-protocol episode `key` for n teams: on the map, or with map_spread or
         map_branch on the key's plus variant (every sequential episode then is: the training episodes keep
@@ -317,10 +344,12 @@ class TeamEvaluator:
         n = ctrl.w_ih.shape[0]
         teams = [all_keys[i] for i in first]
         self._scores.next_generation()
-        # (protocol, key): the keyed training episodes, the noise-free one, the sequential-protocol ones, in this order
+        # (protocol, key): the keyed training episodes, the noise-free one, the noise-free variant ones, the
+        # sequential-protocol ones, in this order
         episodes = [("keyed", key) for key in self.episode_keys(generation)]
         if s.noise_free_episode:
             episodes.append(("clean", 0))
+        episodes += [("clean_variant", key) for key in self.clean_variant_keys(generation)]
         episodes += [("sequential", key) for key in self.sequential_keys(generation)]
         fits = np.zeros((len(episodes), n))
         solved = np.zeros(n)
@@ -343,7 +372,9 @@ class TeamEvaluator:
                     seq = sim.run_sequential(run, seed=s.seed, episode_keys=keys)
                     fit_e, ok_e = sequential_fitness(seq.stages_completed, seq.success, ctrl.n_robots), seq.success
                 else:
-                    sim = self._clean_sim(len(todo)) if protocol == "clean" else self._keyed_sim(key, len(todo))
+                    sim = self._clean_sim(len(todo)) if protocol == "clean" else \
+                        self._clean_variant_sim(key, len(todo)) if protocol == "clean_variant" else \
+                        self._keyed_sim(key, len(todo))
                     res = sim.run_controllers(run, seed=s.seed, episode_keys=keys)
                     fit_e, ok_e = res.fitness, res.solved
                 end_xy = sim.pose[:, :, :2].copy()  # where the episodes left each robot

@@ -241,8 +241,9 @@ class Trainer:
         stats = self.population.tell(selection_fitness(fitness, ev.end_positions, cfg.diversity, cfg.diversity_k))
         seconds = time.perf_counter() - t0
         self.wall += seconds
-        # team-episodes: the keyed training episodes and the sequential-protocol ones (each of those is longer)
-        played = episodes + evaluator.settings.sequential_episodes
+        # team-episodes: the keyed training episodes, the noise-free variant ones and the sequential-protocol ones
+        # (each of those is longer)
+        played = episodes + evaluator.settings.noise_free_variants + evaluator.settings.sequential_episodes
         evaluations = (self.rows[-1][1] if self.rows else 0) + len(genomes) * played * evaluator.readings
         self.rows.append([gen, evaluations, float(ev.fitness[best]), float(ev.fitness.mean()),
                           float(self.best_fitness), bool(solved_mask[best]), int(solved_mask.sum()),
