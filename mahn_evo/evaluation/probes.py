@@ -51,6 +51,10 @@ class Probe:
     left_offset: float = 0.0
     right_offset: float = 0.0
 
+    def __post_init__(self) -> None:
+        if self.kind not in PROBE_KINDS:
+            raise ValueError(f"probe kind must be one of {PROBE_KINDS}, got {self.kind!r}")
+
     def world(self) -> World:
         if self.builtin:
             return load_map(self.builtin)
@@ -58,27 +62,24 @@ class Probe:
 
 
 def _raised(side: str, offset: float) -> Probe:
-    arms = {"left": PLUS_ARM, "right": PLUS_ARM, f"{side}_offset": offset}
-    arms[side] = PLUS_ARM - offset
+    """A turn probe: the `side` arm leaves the top arm `offset` cm above the crossing, shorter by that."""
+    left, right = (PLUS_ARM - offset, PLUS_ARM) if side == "left" else (PLUS_ARM, PLUS_ARM - offset)
     return Probe(f"{side}_raised_{offset:g}", "turn", f"the {side} arm leaves the top arm {offset:g} cm above the "
-                 f"crossing (shorter by that), the other side is at the crossing", **arms)  # type: ignore[arg-type]
-
-
-def _length(name: str, what: str, **arms: float) -> Probe:
-    return Probe(name, "length", what, **arms)  # type: ignore[arg-type]
+                 "crossing (shorter by that), the other side is at the crossing", left=left, right=right,
+                 left_offset=offset if side == "left" else 0.0, right_offset=offset if side == "right" else 0.0)
 
 
 #: the probes, in the order the table lists them
 PROBES: tuple[Probe, ...] = (
     Probe("plus", "map", "the training map", builtin="plus"),
     _raised("left", 30.0), _raised("left", 45.0), _raised("right", 30.0), _raised("right", 45.0),
-    _length("short_left", f"left arm {TEST_SHORT_ARM} cm (the test map's)", left=TEST_SHORT_ARM),
-    _length("short_right", f"right arm {TEST_SHORT_ARM} cm", right=TEST_SHORT_ARM),
-    _length("long_left", f"left arm {TEST_LONG_ARM} cm", left=TEST_LONG_ARM),
-    _length("long_top", f"top arm {TEST_LONG_ARM} cm (the test map's)", top=TEST_LONG_ARM),
-    _length("long_right", f"right arm {TEST_LONG_ARM} cm (the test map's)", right=TEST_LONG_ARM),
-    _length("test_lengths", "the test map's three arm lengths, side arms at the crossing", left=TEST_SHORT_ARM,
-            top=TEST_LONG_ARM, right=TEST_LONG_ARM),
+    Probe("short_left", "length", f"left arm {TEST_SHORT_ARM} cm (the test map's)", left=TEST_SHORT_ARM),
+    Probe("short_right", "length", f"right arm {TEST_SHORT_ARM} cm", right=TEST_SHORT_ARM),
+    Probe("long_left", "length", f"left arm {TEST_LONG_ARM} cm", left=TEST_LONG_ARM),
+    Probe("long_top", "length", f"top arm {TEST_LONG_ARM} cm (the test map's)", top=TEST_LONG_ARM),
+    Probe("long_right", "length", f"right arm {TEST_LONG_ARM} cm (the test map's)", right=TEST_LONG_ARM),
+    Probe("test_lengths", "length", "the test map's three arm lengths, side arms at the crossing",
+          left=TEST_SHORT_ARM, top=TEST_LONG_ARM, right=TEST_LONG_ARM),
     Probe("asymmetric_plus", "map", "the paper's test map: both changes at once", builtin="asymmetric_plus"),
 )
 

@@ -8,7 +8,7 @@ import pytest
 from mahn_envs.maps import load_map
 from mahn_envs.maps.variants import PLUS_ARM
 from mahn_evo.cli import main
-from mahn_evo.evaluation.probes import PROBES, all_posts, probe_summary, probe_team
+from mahn_evo.evaluation.probes import PROBES, Probe, all_posts, probe_summary, probe_team
 from mahn_evo.training.champion import Champion
 
 CHAMPIONS = Path(__file__).resolve().parents[2] / "docs/results/experiment_sequential_seeds_1_15/champions"
@@ -31,6 +31,8 @@ def test_each_probe_changes_one_thing_of_plus():
         else:
             assert probe.builtin in ("plus", "asymmetric_plus")
     assert len({p.name for p in PROBES}) == len(PROBES)
+    with pytest.raises(ValueError, match="probe kind must be one of"):
+        Probe("x", "colour", "not a kind")
 
 
 def test_a_team_that_waits_for_both_sides_fails_every_one_sided_opening_and_not_the_lengths():
