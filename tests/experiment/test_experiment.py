@@ -152,6 +152,13 @@ def test_small_experiment_end_to_end_and_report_only(tmp_path):
     assert "sequential protocol on the training map" in (out / "results.md").read_text()
     with pytest.raises(ValueError, match="give final_validation"):
         replace(plan, final_sequential=3)
+    # --final-family F needs runs trained on plus variants (these were not: a clear error, nothing validated) and
+    # the sequential stage
+    with pytest.raises(ValueError, match="give final_sequential"):
+        replace(plan, final_validation=2, final_family=2)
+    stamps = [p.stat().st_mtime_ns for p in records]
+    assert main(["experiment", "--report-only", "--final-family", "1", "--out", str(out)]) == 2
+    assert stamps == [p.stat().st_mtime_ns for p in records]
 
 
 def test_interrupted_experiment_resumes_bit_identically(tmp_path):
