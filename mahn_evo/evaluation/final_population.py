@@ -90,7 +90,7 @@ def validate_final_population(run_dir: str | Path, episodes: int = 25, sequentia
         raise ValueError(f"run {str(run)!r} trained on its map alone (no --map-spread or --map-branch): it has no "
                          "family of plus variants to validate on (family_episodes)")
     genomes = population.genomes
-    controllers = TeamEvaluator(config.evaluation).decode(genomes)
+    controllers = TeamEvaluator(ev).decode(genomes)
     readings = READINGS if config.symmetry == "best" else ("none",)
     reflex = config.task.reflex_arc
     clean = replace(config.task.without_noise(), reflex_arc=reflex)
@@ -124,13 +124,14 @@ def validate_final_population(run_dir: str | Path, episodes: int = 25, sequentia
                   for i in range(family_episodes)]
         for row in candidates:
             champ = champion(row)
-            result = sequential(champion_policy(champ), map=config.map, params=champ.task(task_params(
-                "generalization")), episodes=sequential_episodes, seed=SEQUENTIAL_SEED)
+            policy, params = champion_policy(champ), champ.task(task_params("generalization"))
+            result = sequential(policy, map=config.map, params=params, episodes=sequential_episodes,
+                                seed=SEQUENTIAL_SEED)
             row["sequential_successes"] = int(sum(result["solved"]))
             row["sequential_stages"] = float(sum(result["fitness"]) / sequential_episodes)
             if family_episodes:
-                family = [sequential_episode(champion_policy(champ), world, champ.task(task_params("generalization")),
-                                             seed=FAMILY_SEED + i) for i, world in enumerate(worlds)]
+                family = [sequential_episode(policy, world, params, seed=FAMILY_SEED + i)
+                          for i, world in enumerate(worlds)]
                 row["family_successes"] = sum(int(f.success) for f in family)
                 row["family_stages"] = float(sum(f.score for f in family) / family_episodes)
 
@@ -147,17 +148,16 @@ def validate_final_population(run_dir: str | Path, episodes: int = 25, sequentia
             record["sequential"]["family"] = {"episodes": family_episodes, "first_key": FAMILY_KEY,
                                               "first_seed": FAMILY_SEED, "maps": [w.name for w in worlds]}
     best = candidates[0] if candidates else None
-    if best is not None:
-        name = f"solution_final_g{gen:05d}_i{best['index']:04d}.json"
-        record["chosen"] = {**best, "file": f"archive/{name}"}
+    pick = None if best is None else f"solution_final_g{gen:05d}_i{best['index']:04d}.json"
+    if best is not None and pick is not None:
+        record["chosen"] = {**best, "file": f"archive/{pick}"}
         if write:
-            champion(best).save(run / "archive" / name)
+            champion(best).save(run / "archive" / pick)
     if write:
         atomic_write_json(run / "final_validation.json", versioned(KIND, record))
         # a pick of an earlier validation of this same population (other settings) leaves the archive: it would
         # otherwise compete with this one in the generalisation ranking the report draws its teams from
-        chosen_name = None if best is None else f"solution_final_g{gen:05d}_i{best['index']:04d}.json"
         for old in (run / "archive").glob(f"solution_final_g{gen:05d}_i*.json"):
-            if old.name != chosen_name:
+            if old.name != pick:
                 old.unlink()
     return record

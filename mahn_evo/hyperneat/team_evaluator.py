@@ -15,7 +15,7 @@ from mahn_envs.core import BatchSim, TaskParams
 from mahn_envs.core.controller import DECISIONS
 from mahn_envs.core.rng import check_seed
 from mahn_envs.core.sequential import SequentialSettings, sequential_task
-from mahn_envs.maps import load_map
+from mahn_envs.maps import World, load_map
 from mahn_envs.maps.variants import check_branch, spread_variant
 from mahn_envs.policies.team_controllers import TeamControllers
 
@@ -276,24 +276,31 @@ class TeamEvaluator:
         # key % episodes: the episode's place in its generation (keys run generation * K ... + K - 1, or 0 ... K - 1)
         if not s.on_variants or key % s.episodes < s.plain_episodes:
             return self._sim(n)
-        return BatchSim(spread_variant(s.seed, key, s.map_spread, s.map_branch, s.branch_sides), n, s.task)
+        return BatchSim(self._variant(key), n, s.task)
 
     def _clean_sim(self, n: int) -> BatchSim:
         if n not in self._clean_sims:
             self._clean_sims = {n: BatchSim(self.world, n, self.settings.task.without_noise())}
         return self._clean_sims[n]
 
+    def _variant(self, key: int) -> World:
+        """The plus variant of episode `key` (map_spread, map_branch, branch_sides): keyed, noise-free variant and
+        sequential episodes all draw theirs here."""
+        s = self.settings
+        return spread_variant(s.seed, key, s.map_spread, s.map_branch, s.branch_sides)
+
+    def _keys(self, first: int, k: int, generation: int) -> list[int]:
+        """k keys from `first`, the block of `generation` with per-generation draws (else always the first)."""
+        start = first + (generation * k if self.settings.noise_draws == "per_generation" else 0)
+        return list(range(start, start + k))
+
     def _clean_variant_sim(self, key: int, n: int) -> BatchSim:
         """The simulator of noise-free variant episode `key` for n teams: the key's plus variant, no noise."""
-        s = self.settings
-        return BatchSim(spread_variant(s.seed, key, s.map_spread, s.map_branch, s.branch_sides), n,
-                        s.task.without_noise())
+        return BatchSim(self._variant(key), n, self.settings.task.without_noise())
 
     def clean_variant_keys(self, generation: int = 0) -> list[int]:
         """The keys of the noise-free variant episodes every team of `generation` plays (noise_free_variants)."""
-        k = self.settings.noise_free_variants
-        first = CLEAN_VARIANT_KEY + (generation * k if self.settings.noise_draws == "per_generation" else 0)
-        return list(range(first, first + k))
+        return self._keys(CLEAN_VARIANT_KEY, self.settings.noise_free_variants, generation)
 
     def _sequential_sim(self, key: int, n: int) -> BatchSim:
         """The simulator of sequential-protocol episode `key` for n teams: on the map, or with map_spread or
@@ -302,22 +309,18 @@ class TeamEvaluator:
         s = self.settings
         task = sequential_task(s.task, SequentialSettings())
         if s.on_variants:
-            return BatchSim(spread_variant(s.seed, key, s.map_spread, s.map_branch, s.branch_sides), n, task)
+            return BatchSim(self._variant(key), n, task)
         if n not in self._sequential_sims:
             self._sequential_sims = {n: BatchSim(self.world, n, task)}
         return self._sequential_sims[n]
 
     def sequential_keys(self, generation: int = 0) -> list[int]:
         """The keys of the sequential-protocol episodes every team of `generation` plays (sequential_episodes)."""
-        k = self.settings.sequential_episodes
-        first = SEQUENTIAL_KEY + (generation * k if self.settings.noise_draws == "per_generation" else 0)
-        return list(range(first, first + k))
+        return self._keys(SEQUENTIAL_KEY, self.settings.sequential_episodes, generation)
 
     def episode_keys(self, generation: int = 0) -> list[int]:
         """The keys of the episodes every team of `generation` is scored on."""
-        k = self.settings.episodes
-        first = generation * k if self.settings.noise_draws == "per_generation" else 0
-        return list(range(first, first + k))
+        return self._keys(0, self.settings.episodes, generation)
 
     def score(self, controllers: TeamControllers, generation: int = 0) -> tuple[np.ndarray, np.ndarray]:
         """Aggregated fitness and solved fraction of each team over its keyed episodes (see `outcomes`)."""

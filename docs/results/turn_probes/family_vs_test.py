@@ -12,15 +12,13 @@ from pathlib import Path
 from mahn_envs.maps import load_map
 from mahn_envs.maps.variants import spread_variant
 from mahn_evo.evaluation.eval_champion import champion_policy
-from mahn_evo.evaluation.final_population import SEQUENTIAL_SEED, final_population
+from mahn_evo.evaluation.final_population import FAMILY_KEY, SEQUENTIAL_SEED, final_population
 from mahn_evo.evaluation.protocols import sequential_episode
 from mahn_evo.evaluation.task_setup import task_params
 from mahn_evo.training.champion import Champion
 
 #: the first seed of the test-map episodes: the transfer test's of the seeds 1-15 experiments (their plan's seed)
 TEST_SEED = 1
-#: keys of the validation variants: far from the training keys (generation x episodes) and the sequential ones
-FAMILY_KEY = 1 << 41
 
 
 def main(n: int, runs: list[str]) -> None:
