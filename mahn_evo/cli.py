@@ -75,6 +75,10 @@ def _fidelity_and_robustness_options(p: argparse.ArgumentParser) -> None:
                    help="also score every team on S episodes of the sequential (real-world) protocol per "
                         "generation (with --robust-from first_solution: of the robust phase), the task's noise, "
                         "fresh per generation with --noise-draws per_generation (default 0)")
+    p.add_argument("--sequential-plain", type=int, metavar="P",
+                   help="with --sequential-episodes and --map-spread or --map-branch: play the first P of each "
+                        "generation's sequential episodes on the map itself, the others on plus variants, so teams "
+                        "are selected for the protocol on both (default 0: every one on a variant)")
     p.add_argument("--noise-free-variants", type=int, metavar="N",
                    help="with --map-spread or --map-branch: also score every team on N noise-free episodes per "
                         "generation on plus variants of their own (with --robust-from first_solution: of the robust "
@@ -355,7 +359,8 @@ def experiment_plan(args: argparse.Namespace) -> ExperimentPlan:
               "noise_free_episode": args.noise_free_episode, "map_spread": args.map_spread,
               "map_branch": args.map_branch, "branch_sides": args.branch_sides,
               "plain_episodes": args.plain_episodes, "sequential_episodes": args.sequential_episodes,
-              "noise_free_variants": args.noise_free_variants, "robust_from": args.robust_from,
+              "sequential_plain": args.sequential_plain, "noise_free_variants": args.noise_free_variants,
+              "robust_from": args.robust_from,
               "robust_delay": args.robust_delay, "noise_free_branch": args.noise_free_branch,
               "fitness_memory": args.fitness_memory, "diversity": args.diversity, "diversity_k": args.diversity_k,
               "restart_every": args.restart_every}
@@ -464,8 +469,8 @@ def cmd_train(args) -> int:
                      quantile=args.quantile, noise_free_episode=args.noise_free_episode, map_spread=args.map_spread,
                      map_branch=args.map_branch, branch_sides=args.branch_sides,
                      plain_episodes=args.plain_episodes, sequential_episodes=args.sequential_episodes,
-                     noise_free_variants=args.noise_free_variants, diversity=args.diversity,
-                     diversity_k=args.diversity_k, restart_every=args.restart_every)
+                     sequential_plain=args.sequential_plain, noise_free_variants=args.noise_free_variants,
+                     diversity=args.diversity, diversity_k=args.diversity_k, restart_every=args.restart_every)
     if args.resume and (args.out / "config.json").exists() and not args.config and not args.preset:
         from .storage.files import read_versioned_json
 

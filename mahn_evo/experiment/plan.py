@@ -25,7 +25,7 @@ PLAN_FILE = "experiment.json"
 #: the plan's fields that are EvolutionConfig fields of the same name, passed to every run as they are
 EVOLUTION_FIELDS = ("init", "evaluate_modules", "cppn_activation", "decision", "symmetry", "episodes", "noise_draws",
                     "aggregate", "quantile", "noise_free_episode", "map_spread", "map_branch", "branch_sides",
-                    "plain_episodes", "sequential_episodes", "noise_free_variants",
+                    "plain_episodes", "sequential_episodes", "sequential_plain", "noise_free_variants",
                     "robust_from", "robust_delay", "noise_free_branch", "fitness_memory", "diversity", "diversity_k",
                     "restart_every", "map", "after_solved")
 
@@ -58,6 +58,7 @@ class ExperimentPlan:
     branch_sides: str = "both"  # or "one" / "one_short": a side at the crossing, the other above it (EvolutionConfig)
     plain_episodes: int = 0  # of which the first N per generation on the map itself (see EvolutionConfig)
     sequential_episodes: int = 0  # sequential-protocol episodes per team per generation (see EvolutionConfig)
+    sequential_plain: int = 0  # of which the first P per generation on the map itself (see EvolutionConfig)
     noise_free_variants: int = 0  # noise-free episodes on plus variants per team per generation (EvolutionConfig)
     #: "start" or "first_solution": robust evaluation from the first generation, or only after the first solution
     robust_from: str = "start"

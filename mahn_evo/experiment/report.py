@@ -118,7 +118,10 @@ def _robust_text(plan: dict[str, Any]) -> str:
             + (f", {plan['noise_free_variants']} noise-free episode(s) on plus variants (`--noise-free-variants "
                f"{plan['noise_free_variants']}`)" if plan.get("noise_free_variants") else "")
             + (f", {plan['sequential_episodes']} episode(s) of the sequential protocol (`--sequential-episodes "
-               f"{plan['sequential_episodes']}`)" if plan.get("sequential_episodes") else "") + ")")
+               f"{plan['sequential_episodes']}`"
+               + (f", the first {plan['sequential_plain']} on the map itself: `--sequential-plain "
+                  f"{plan['sequential_plain']}`" if plan.get("sequential_plain") else "")
+               + ")" if plan.get("sequential_episodes") else "") + ")")
     text += _MEMORY_TEXT.get(plan.get("fitness_memory", "generation"), "")
     if plan.get("robust_from", "start") == "first_solution":
         clean_branch = float(plan.get("noise_free_branch", 0.0))

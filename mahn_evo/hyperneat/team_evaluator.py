@@ -91,6 +91,11 @@ class EvaluationSettings:
     #: hardened on noisy training episodes can still fail the noisy sequential protocol, the robustness test
     #: (docs/results/experiment_lifetime_seeds_1_15/)
     sequential_episodes: int = 0
+    #: with map_spread or map_branch: the first P of the S sequential episodes of each generation are played on `map`
+    #: itself, the others on variants.  Why: in the final populations of hardened runs, teams that succeed in noisy
+    #: sequential episodes on the plus variants (and on the test map) mostly fail them on plus, and those that succeed
+    #: on plus fail the variants: with every sequential episode on a variant, nothing selects for both
+    sequential_plain: int = 0
     #: 0: the variants are met under the task's noise only.  N > 0 (with map_spread or map_branch): each team also
     #: plays N noise-free training episodes per generation on plus variants of keys of their own (CLEAN_VARIANT_KEY,
     #: fresh per generation with per-generation draws), aggregated with the others.  Why: under noise the training
@@ -144,6 +149,13 @@ class EvaluationSettings:
         if isinstance(self.sequential_episodes, bool) or not isinstance(self.sequential_episodes, int) \
                 or self.sequential_episodes < 0:
             raise ValueError(f"sequential_episodes must be a non-negative integer, got {self.sequential_episodes!r}")
+        if isinstance(self.sequential_plain, bool) or not isinstance(self.sequential_plain, int) \
+                or not 0 <= self.sequential_plain <= self.sequential_episodes:
+            raise ValueError(f"sequential_plain must be an integer in [0, sequential_episodes = "
+                             f"{self.sequential_episodes}], got {self.sequential_plain!r}")
+        if self.sequential_plain and not self.on_variants:
+            raise ValueError("sequential_plain keeps some sequential episodes on the map instead of its variants, so "
+                             "it needs map_spread or map_branch > 0 (without them every episode is on the map)")
         if isinstance(self.noise_free_variants, bool) or not isinstance(self.noise_free_variants, int) \
                 or self.noise_free_variants < 0:
             raise ValueError(f"noise_free_variants must be a non-negative integer, got {self.noise_free_variants!r}")
@@ -304,11 +316,11 @@ class TeamEvaluator:
 
     def _sequential_sim(self, key: int, n: int) -> BatchSim:
         """The simulator of sequential-protocol episode `key` for n teams: on the map, or with map_spread or
-        map_branch on the key's plus variant (every sequential episode then is: the training episodes keep
-        `plain_episodes` on the map itself)."""
+        map_branch on the key's plus variant, but for the first `sequential_plain` episodes of each generation."""
         s = self.settings
         task = sequential_task(s.task, SequentialSettings())
-        if s.on_variants:
+        # (key - SEQUENTIAL_KEY) % S: the episode's place in its generation's block (see _keys)
+        if s.on_variants and (key - SEQUENTIAL_KEY) % s.sequential_episodes >= s.sequential_plain:
             return BatchSim(self._variant(key), n, task)
         if n not in self._sequential_sims:
             self._sequential_sims = {n: BatchSim(self.world, n, task)}

@@ -41,7 +41,7 @@ STOPPING_RULES = ("generations", "stop_when_solved", "after_solved")
 #: change its robust phase when resumed before that phase has started (`continues_before_robust_phase`)
 ROBUST_PHASE_FIELDS = ("task", "episodes", "noise_draws", "aggregate", "quantile", "noise_free_episode",
                        "map_spread", "map_branch", "branch_sides", "plain_episodes", "sequential_episodes",
-                       "noise_free_variants", "robust_from", "robust_delay",
+                       "sequential_plain", "noise_free_variants", "robust_from", "robust_delay",
                        "reflex_arc_from", "fitness_memory")
 #: when a run with the arcing reflex (TaskParams.reflex_arc) uses it: "start" (every generation) or "robust_phase"
 #: (the noise-free phase of robust_from "first_solution" keeps the original's reflex)
@@ -106,6 +106,9 @@ class EvolutionConfig:
     #: S > 0: each team also plays S episodes of the sequential (real-world) protocol per generation (of the robust
     #: phase, with robust_from "first_solution"), aggregated with the others (see EvaluationSettings)
     sequential_episodes: int = 0
+    #: with map_spread or map_branch: the first P of them per generation on the map itself (see
+    #: EvaluationSettings.sequential_plain)
+    sequential_plain: int = 0
     #: N > 0 (with map_spread or map_branch): each team also plays N noise-free episodes per generation on plus
     #: variants, aggregated with the others (see EvaluationSettings.noise_free_variants)
     noise_free_variants: int = 0
@@ -253,7 +256,7 @@ class EvolutionConfig:
         clean = replace(self.evaluation, task=task, episodes=1, noise_draws="fixed",
                         aggregate="mean", quantile=0.25, noise_free_episode=False, map_spread=0.0,
                         map_branch=0.0, branch_sides="both", plain_episodes=0, sequential_episodes=0,
-                        noise_free_variants=0)
+                        sequential_plain=0, noise_free_variants=0)
         if self.noise_free_branch == 0.0:
             return clean
         return replace(clean, episodes=2, noise_draws="per_generation", map_branch=self.noise_free_branch,

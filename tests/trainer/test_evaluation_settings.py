@@ -25,7 +25,7 @@ def test_a_run_hands_its_evaluation_fields_to_the_evaluator(tmp_path):
         "noise_draws": "per_generation",
         "aggregate": "quantile", "quantile": 0.5, "noise_free_episode": True, "map_spread": 0.0,
         "map_branch": 0.0, "branch_sides": "both", "plain_episodes": 0, "sequential_episodes": 0,
-        "noise_free_variants": 0}
+        "sequential_plain": 0, "noise_free_variants": 0}
     trainer = Trainer(cfg.with_overrides(pop=8), tmp_path / "run")
     assert trainer.evaluator.settings == ev
     assert trainer.evaluator.world.name == "asymmetric_plus"

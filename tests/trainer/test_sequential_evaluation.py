@@ -104,3 +104,46 @@ def test_with_map_branch_the_sequential_episodes_play_on_their_keys_plus_variant
     on_plus = play_sequential("plus", robust.controllers, NOISY, seed=3, episode_keys=[key])
     assert fitness[0] == pytest.approx((plain[0] + sequential_fitness(seq.stages_completed, seq.success, 3)[0]) / 2)
     assert not np.array_equal(seq.records, on_plus.records)  # another map: another episode
+
+
+def test_sequential_plain_keeps_the_first_sequential_episodes_of_a_generation_on_the_map():
+    """`sequential_plain` 1 of 2 (with map_branch): in every generation the first sequential episode is the core's
+    protocol episode on plus, the second on its key's variant; the option needs variants and at most S episodes,
+    belongs to the robust phase, and the CLI, plan and report carry it."""
+    from mahn_envs.maps.variants import spread_variant
+    from mahn_evo.cli import build_parser, experiment_plan
+    from mahn_evo.experiment.report import _robust_text
+
+    brittle = Champion.load(BRITTLE)
+    settings = EvaluationSettings(task=NOISY, episodes=1, noise_draws="per_generation", sequential_episodes=2, seed=3,
+                                  map_branch=49.0, branch_sides="one_short", plain_episodes=1, sequential_plain=1)
+    team = brittle.controllers.as_batch()
+    plain, _, _ = TeamEvaluator(replace(settings, sequential_episodes=0, sequential_plain=0)).outcomes(team, 3)
+    for generation in (0, 3):
+        ev = TeamEvaluator(settings)
+        first, second = ev.sequential_keys(generation)
+        on_plus = play_sequential("plus", brittle.controllers, NOISY, seed=3, episode_keys=[first])
+        on_variant = play_sequential(spread_variant(3, second, 0.0, 49.0, "one_short"), brittle.controllers, NOISY,
+                                     seed=3, episode_keys=[second])
+        fitness, _, _ = ev.outcomes(team, generation=generation)
+        if generation == 3:
+            seq = sum(sequential_fitness(s.stages_completed, s.success, 3)[0] for s in (on_plus, on_variant))
+            assert fitness[0] == pytest.approx((plain[0] + seq) / 3, abs=1e-9)
+        # the first key's own variant is another episode (generation 3: 9 stages on plus, 5 on it)
+        mixed = play_sequential(spread_variant(3, first, 0.0, 49.0, "one_short"), brittle.controllers, NOISY,
+                                seed=3, episode_keys=[first])
+        assert generation != 3 or (on_plus.stages_completed[0], mixed.stages_completed[0]) == (9, 5)
+    # all on variants (the default) is another score
+    assert TeamEvaluator(replace(settings, sequential_plain=0)).outcomes(team, 3)[0][0] != fitness[0]
+    with pytest.raises(ValueError, match="sequential_plain must be an integer in"):
+        EvaluationSettings(map_branch=40.0, sequential_episodes=1, sequential_plain=2)
+    with pytest.raises(ValueError, match="needs map_spread or map_branch"):
+        EvaluationSettings(sequential_episodes=1, sequential_plain=1)
+    parser = build_parser()
+    plan = experiment_plan(parser.parse_args(
+        "experiment --out x --runs 2 --seed 1 --preset best-restarts --noise generalization --episodes 3 "
+        "--noise-draws per_generation --map-branch 49 --branch-sides one_short --plain-episodes 1 "
+        "--sequential-episodes 2 --sequential-plain 1 --robust-from first_solution".split()))
+    config = plan.train_config("situational", 1)
+    assert config.evaluation.sequential_plain == 1 and config.noise_free_evaluation.sequential_plain == 0
+    assert "the first 1 on the map itself: `--sequential-plain 1`" in _robust_text(plan.to_dict())
