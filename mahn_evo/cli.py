@@ -222,6 +222,8 @@ def _generalize_parser(sub) -> None:
 
 
 def _final_validation_parser(sub) -> None:
+    from .evaluation.final_population import ENGINES
+
     p = sub.add_parser("final-validation",
                        help="score every team of a run's final population on fresh noisy episodes and archive the "
                             "best noise-free solution (post-evaluation; mahn_evo.evaluation.final_population)")
@@ -243,6 +245,10 @@ def _final_validation_parser(sub) -> None:
                         "sequential episodes on the run's own variants (keys never trained on), and the choice "
                         "counts both: success on the training family predicts the test map (default 0: the map "
                         "alone)")
+    p.add_argument("--engine", choices=ENGINES, default="pymunk",
+                   help="where the sequential stage plays: pymunk (default: the transfer test's engine, robots "
+                        "bump into each other) or batch (the compiled core's protocol, as training plays it: about "
+                        "50 times faster, so --sequential can cover every candidate)")
 
 
 def cmd_final_validation(args) -> int:
@@ -251,7 +257,7 @@ def cmd_final_validation(args) -> int:
     for run in args.run_dirs:
         record = validate_final_population(run, episodes=args.episodes, sequential_teams=args.sequential,
                                            sequential_episodes=args.sequential_episodes,
-                                           family_episodes=args.family_episodes)
+                                           family_episodes=args.family_episodes, engine=args.engine)
         chosen = record["chosen"]
         if chosen is None:
             print(f"{run}: no team of generation {record['generation']} solves the noise-free task; nothing archived")
@@ -266,8 +272,9 @@ def cmd_final_validation(args) -> int:
 
 
 def _experiment_parser(sub) -> None:
+    from .evaluation.final_population import ENGINES
     from .experiment.backends import BACKENDS
-    from .experiment.plan import ExperimentPlan
+    from .experiment.plan import GENERAL_FROM, ExperimentPlan
 
     d = ExperimentPlan()
     p = sub.add_parser("experiment", help="the paper's table: seeded runs per mode, generalisation, transfer, figures")
@@ -305,6 +312,13 @@ def _experiment_parser(sub) -> None:
                    help="with --final-sequential (runs trained on plus variants): those teams also play F noisy "
                         "sequential episodes on the run's own variants and the choice counts both (`mahn-evo "
                         f"final-validation --family-episodes F`; default {d.final_family}: none)")
+    p.add_argument("--final-engine", choices=ENGINES,
+                   help="the engine of the final validation's sequential stage (`mahn-evo final-validation "
+                        f"--engine`; default {d.final_engine})")
+    p.add_argument("--general-from", choices=GENERAL_FROM,
+                   help="each run's team for the generalisation ranking and the transfer tests: archive (its most "
+                        "general archived solution) or final_validation (the final validation's pick, so a team "
+                        f"chosen for the sequential protocol is the one tested; default {d.general_from})")
     p.add_argument("--max-cycles", type=int, default=d.max_cycles, help=argparse.SUPPRESS)
     p.add_argument("--signal-tick", type=int, default=d.signal_tick, help=argparse.SUPPRESS)
     p.add_argument("--config", type=Path, help="TOML or JSON file whose `neat` table overrides NEAT settings")
@@ -386,7 +400,8 @@ def _analysis_options(args) -> dict[str, Any]:
     """The report's options as given on the command line (None: not given)."""
     return {"top": args.top, "general_episodes": args.general_episodes, "transfer_episodes": args.transfer_episodes,
             "final_validation": args.final_validation, "final_sequential": args.final_sequential,
-            "final_family": args.final_family}
+            "final_family": args.final_family, "final_engine": args.final_engine,
+            "general_from": args.general_from}
 
 
 def cmd_experiment(args) -> int:

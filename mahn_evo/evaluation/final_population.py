@@ -20,7 +20,13 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
+from mahn_envs.core.batch import BatchSim
+from mahn_envs.core.sequential import SequentialSettings, sequential_task
+from mahn_envs.maps import World, load_map
 from mahn_envs.maps.variants import spread_variant
+from mahn_envs.policies.team_controllers import TeamControllers
 
 from ..hyperneat.substrate import READINGS, team_reading
 from ..hyperneat.team_evaluator import TeamEvaluator
@@ -42,6 +48,15 @@ SEQUENTIAL_SEED = 1 << 30
 FAMILY_KEY = 1 << 41
 #: the first seed of the family stage's sequential episodes (beside the sequential stage's SEQUENTIAL_SEED + e)
 FAMILY_SEED = SEQUENTIAL_SEED + (1 << 20)
+#: engine "batch": the first episode key of the sequential stage's episodes on the map, with the run's seed (below
+#: 2**32, as start jitter reads a key's low 32 bits; above the training's sequential and noise-free variant keys)
+BATCH_SEQUENTIAL_KEY = 7 << 29
+#: engine "batch": the first episode key of the family stage's episodes (their maps are FAMILY_KEY + i's variants)
+BATCH_FAMILY_KEY = BATCH_SEQUENTIAL_KEY + (1 << 20)
+#: where the sequential stage plays its episodes: "pymunk" (the transfer test's engine: robots bump into each
+#: other) or "batch" (the compiled core's protocol, as training plays it: about 50 times faster, so the stage can
+#: afford every candidate and more episodes; its successes track pymunk's, docs/results/selection/)
+ENGINES = ("pymunk", "batch")
 KIND = "final_validation"
 
 
@@ -61,13 +76,14 @@ def final_population(run_dir: str | Path) -> tuple[EvolutionConfig, Population]:
 
 
 def validate_final_population(run_dir: str | Path, episodes: int = 25, sequential_teams: int = 0,
-                              sequential_episodes: int = 10, family_episodes: int = 0, write: bool = True
-                              ) -> dict[str, Any]:
+                              sequential_episodes: int = 10, family_episodes: int = 0, engine: str = "pymunk",
+                              write: bool = True) -> dict[str, Any]:
     """Score every team of the run's final population (every reading with symmetry "best") on `episodes` noisy
     validation episodes; with `sequential_teams` T > 0, play the T best noise-free solutions of that ranking
     through `sequential_episodes` noisy episodes of the sequential protocol on the run's map and choose by those;
     with `family_episodes` F > 0 (a run trained on plus variants), each of them also plays F such episodes on
-    the run's own variants (keys from FAMILY_KEY, never trained on) and the choice counts both.  Why: a team's
+    the run's own variants (keys from FAMILY_KEY, never trained on) and the choice counts both; `engine` says where
+    those episodes run (ENGINES).  Why: a team's
     successes on its training family predict the test map, where its successes on the map itself do not
     (docs/results/turn_probes/: picks with 8-10 of 10 on plus and 0-1 on the test map all score 0-1 on the family).
     With `write`, archive the chosen team as archive/solution_final_gGGGGG_iIIII.json (replacing the pick of an
@@ -80,6 +96,8 @@ def validate_final_population(run_dir: str | Path, episodes: int = 25, sequentia
         raise ValueError(f"sequential_teams must be a non-negative integer, got {sequential_teams!r}")
     if isinstance(family_episodes, bool) or not isinstance(family_episodes, int) or family_episodes < 0:
         raise ValueError(f"family_episodes must be a non-negative integer, got {family_episodes!r}")
+    if engine not in ENGINES:
+        raise ValueError(f"engine must be one of {ENGINES}, got {engine!r}")
     if family_episodes and not sequential_teams:
         raise ValueError("family_episodes plays the sequential stage's teams on the run's plus variants: give "
                          "sequential_teams (--sequential T) too")
@@ -122,7 +140,10 @@ def validate_final_population(run_dir: str | Path, episodes: int = 25, sequentia
         candidates = candidates[:sequential_teams]
         worlds = [spread_variant(config.seed, FAMILY_KEY + i, ev.map_spread, ev.map_branch, ev.branch_sides)
                   for i in range(family_episodes)]
-        for row in candidates:
+        if engine == "batch":
+            _batch_sequential_stage(candidates, [champion(r).controllers for r in candidates], config, worlds,
+                                    sequential_episodes)
+        for row in candidates if engine == "pymunk" else ():
             champ = champion(row)
             policy, params = champion_policy(champ), champ.task(task_params("generalization"))
             result = sequential(policy, map=config.map, params=params, episodes=sequential_episodes,
@@ -141,12 +162,15 @@ def validate_final_population(run_dir: str | Path, episodes: int = 25, sequentia
             return (-(r["sequential_successes"] + r["family_successes"]),
                     -(r["sequential_stages"] * sequential_episodes + r["family_stages"] * family_episodes))
         candidates.sort(key=choice)  # stable: then the rows' order
-        record["sequential"] = {"teams": sequential_teams, "episodes": sequential_episodes,
-                                "first_seed": SEQUENTIAL_SEED, "map": config.map, "noise": "generalization",
-                                "ranking": candidates}
+        in_core = engine == "batch"
+        record["sequential"] = {"teams": sequential_teams, "episodes": sequential_episodes, "engine": engine,
+                                **({"first_key": BATCH_SEQUENTIAL_KEY} if in_core else {"first_seed": SEQUENTIAL_SEED}),
+                                "map": config.map, "noise": "generalization", "ranking": candidates}
         if family_episodes:
-            record["sequential"]["family"] = {"episodes": family_episodes, "first_key": FAMILY_KEY,
-                                              "first_seed": FAMILY_SEED, "maps": [w.name for w in worlds]}
+            record["sequential"]["family"] = {
+                "episodes": family_episodes, "first_key": FAMILY_KEY,
+                **({"first_episode_key": BATCH_FAMILY_KEY} if in_core else {"first_seed": FAMILY_SEED}),
+                "maps": [w.name for w in worlds]}
     best = candidates[0] if candidates else None
     pick = None if best is None else f"solution_final_g{gen:05d}_i{best['index']:04d}.json"
     if best is not None and pick is not None:
@@ -161,3 +185,30 @@ def validate_final_population(run_dir: str | Path, episodes: int = 25, sequentia
             if old.name != pick:
                 old.unlink()
     return record
+
+
+def _batch_sequential_stage(rows: list[dict[str, Any]], teams: list[TeamControllers], config: EvolutionConfig,
+                            worlds: list[World], episodes: int) -> None:
+    """The sequential stage in the compiled core: every candidate plays `episodes` noisy protocol episodes on the
+    run's map (keys BATCH_SEQUENTIAL_KEY + e) and one on each family world (keys BATCH_FAMILY_KEY + i), all
+    candidates of an episode in one batch; writes the counts into `rows` as the pymunk stage does."""
+    if not rows:
+        return
+    task = sequential_task(replace(task_params("generalization"), reflex_arc=config.task.reflex_arc),
+                           SequentialSettings())
+    ctrl = TeamControllers.stack(teams)
+    n, stages = len(rows), 3 * ctrl.n_robots
+    plays = [(load_map(config.map), BATCH_SEQUENTIAL_KEY + e, "sequential") for e in range(episodes)]
+    plays += [(world, BATCH_FAMILY_KEY + i, "family") for i, world in enumerate(worlds)]
+    counts = {k: (np.zeros(n, dtype=np.int64), np.zeros(n)) for k in ("sequential", "family")}
+    for world, key, stage in plays:
+        rec = BatchSim(world, n, task).run_sequential(ctrl, seed=config.seed,
+                                                      episode_keys=np.full(n, key, dtype=np.int64))
+        counts[stage][0][:] += rec.success
+        counts[stage][1][:] += rec.stages_completed / stages
+    for j, row in enumerate(rows):
+        row["sequential_successes"] = int(counts["sequential"][0][j])
+        row["sequential_stages"] = float(counts["sequential"][1][j] / episodes)
+        if worlds:
+            row["family_successes"] = int(counts["family"][0][j])
+            row["family_stages"] = float(counts["family"][1][j] / len(worlds))

@@ -14,6 +14,7 @@ from typing import Any
 
 from mahn_envs.core.rng import check_seed
 
+from ..evaluation.final_population import ENGINES
 from ..hyperneat.substrate import MODES
 from ..neat.settings import NeatSettings
 from ..storage.files import atomic_write_json, read_versioned_json, versioned
@@ -31,7 +32,10 @@ EVOLUTION_FIELDS = ("init", "evaluate_modules", "cppn_activation", "decision", "
 
 #: the report's options: they choose what is tested after the runs, so they may change in an experiment's folder
 REPORT_OPTIONS = ("top", "general_episodes", "transfer_episodes", "final_validation", "final_sequential",
-                  "final_family")
+                  "final_family", "final_engine", "general_from")
+#: where each run's team for the generalisation ranking comes from: "archive" (its most general archived solution)
+#: or "final_validation" (the final validation's pick, when it made one)
+GENERAL_FROM = ("archive", "final_validation")
 
 
 @dataclass(frozen=True)
@@ -83,6 +87,11 @@ class ExperimentPlan:
     #: with final_sequential: those teams also play F noisy sequential episodes on the run's own plus variants
     #: (runs with map_spread or map_branch), and the choice counts both (0: the training map alone)
     final_family: int = 0
+    #: the engine of the final validation's sequential stage (evaluation.final_population.ENGINES)
+    final_engine: str = "pymunk"
+    #: GENERAL_FROM: "final_validation" transfers each run's final-validation pick (ranked across runs by the
+    #: generalisation test as always), so a pick chosen for the sequential protocol is the team that is tested
+    general_from: str = "archive"
     replays: int = 1  # most general solutions per mode filmed in each protocol and map (GIFs)
     reflex_arc: bool = False  # the arcing reflex (TaskParams.reflex_arc), beyond the paper
     reflex_arc_from: str = "start"  # or "robust_phase" (see EvolutionConfig.reflex_arc_from)
@@ -109,6 +118,13 @@ class ExperimentPlan:
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, int) or v < 0:
                 raise ValueError(f"{name} must be a non-negative integer, got {v!r}")
+        if self.final_engine not in ENGINES:
+            raise ValueError(f"final_engine must be one of {ENGINES}, got {self.final_engine!r}")
+        if self.general_from not in GENERAL_FROM:
+            raise ValueError(f"general_from must be one of {GENERAL_FROM}, got {self.general_from!r}")
+        if self.general_from == "final_validation" and not self.final_validation:
+            raise ValueError("general_from 'final_validation' transfers the final validation's picks: give "
+                             "final_validation (--final-validation N) too")
         if self.final_family and not self.final_sequential:
             raise ValueError("final_family plays the sequential stage's teams on the runs' plus variants: give "
                              "final_sequential (--final-sequential T) too")

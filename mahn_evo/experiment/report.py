@@ -185,8 +185,11 @@ def markdown(results: dict[str, Any]) -> str:
         lines += ["", f"Fisher's exact test (two-sided), solved vs not solved, {test['modes'][0]} vs "
                       f"{test['modes'][1]}: table {test['table']}, p = {test['p_value']:.3g} "
                       f"(paper: p {PAPER['fisher_p']})."]
+    from_final = plan.get("general_from", "archive") == "final_validation"
     lines += ["", "## Most general solutions and transfer", "",
-              "Per run, the archived solution with the best score over "
+              ("Per run, the final validation's pick (below; `--general-from final_validation`; a run without one: "
+               "its archived solution with the best score), scored over " if from_final else
+               "Per run, the archived solution with the best score over ") +
               f"{plan['general_episodes']} noisy episodes on `{plan['map']}`; the best of those from distinct runs. "
               + (f"Each run's archive also holds the best noise-free solution of its final population on "
                  f"{plan['final_validation']} validation episodes of its own (`mahn-evo final-validation`)"
@@ -194,7 +197,10 @@ def markdown(results: dict[str, Any]) -> str:
                     "episodes of the sequential protocol on the training map"
                     + (f" and {plan['final_family']} on plus variants of its training family (`--final-family "
                        f"{plan['final_family']}`)" if plan.get("final_family") else "")
-                    + " (seeds of their own)" if plan.get("final_sequential") else "") + ". "
+                    + " (seeds of their own"
+                    + (", played in the compiled core: `--final-engine batch`"
+                       if plan.get("final_engine", "pymunk") == "batch" else "") + ")"
+                    if plan.get("final_sequential") else "") + ". "
                  if plan.get("final_validation") else "") +
               "`training`: all robots called at tick 690 (team fitness, solved). `sequential`: the real-world "
               "protocol in the pymunk engine (robots called home one at a time, sent back out); success = every "

@@ -35,9 +35,11 @@ def run_experiment(plan: ExperimentPlan, out: str | Path, backend: str = "local"
             if unknown:
                 raise ValueError(f"report options are {list(REPORT_OPTIONS)}, got {unknown}")
             saved = replace(saved, **analysis)
+        results = write_results(saved, out, log=log, workers=workers)
+        if analysis:  # only a report that was written keeps its options (a failed one leaves the plan as it was)
             with folder_lock(out, "experiment folder"):
                 saved.save_or_check(out)
-        return write_results(saved, out, log=log, workers=workers)
+        return results
     with folder_lock(out, "experiment folder"):
         return _run(plan, out, backend, workers, address, analyse, log)
 

@@ -56,15 +56,17 @@ def validate_final_populations(plan: ExperimentPlan, runs: list[RunRecord], log:
             saved = read_versioned_json(record, FINAL_KIND)
             stage = saved.get("sequential", {})
             if (saved.get("episodes"), saved.get("generation"), stage.get("teams", 0),
-                    stage.get("family", {}).get("episodes", 0)) == \
-                    (plan.final_validation, r.generations, plan.final_sequential, plan.final_family):
+                    stage.get("family", {}).get("episodes", 0), stage.get("engine", "pymunk")) == \
+                    (plan.final_validation, r.generations, plan.final_sequential, plan.final_family,
+                     plan.final_engine if plan.final_sequential else "pymunk"):
                 continue  # validated so since the run last changed (a longer run validates again)
         validate_final_population(r.folder, episodes=plan.final_validation, sequential_teams=plan.final_sequential,
-                                  family_episodes=plan.final_family)
+                                  family_episodes=plan.final_family, engine=plan.final_engine)
         done += 1
     if done:
         seq = f", the best {plan.final_sequential} in the sequential protocol" if plan.final_sequential else ""
         seq += f" on the map and {plan.final_family} of its plus variants" if plan.final_family else ""
+        seq += f" ({plan.final_engine})" if plan.final_sequential else ""
         log(f"final validation ({plan.final_validation} episodes{seq}) of {done} run(s)")
 
 
@@ -78,6 +80,8 @@ def most_general(plan: ExperimentPlan, runs: list[RunRecord], mode: str,
             continue
         rows = generalize(r.folder, episodes=plan.general_episodes, map=plan.map, seed=plan.seed)
         top = rows[0]
+        if plan.general_from == "final_validation":
+            top = next((row for row in rows if row["file"] == _final_pick(r.folder)), top)
         archived = r.folder / "archive" / top["file"]
         path = archived if archived.exists() else r.folder / top["file"]
         entries.append({"run": r.name, "seed": r.seed, "file": str(path.relative_to(r.folder.parent.parent)),
@@ -90,6 +94,15 @@ def most_general(plan: ExperimentPlan, runs: list[RunRecord], mode: str,
     log(f"{mode}: {len(entries)} run(s) ranked by generalisation, {sum(e['solution'] for e in entries)} with "
         f"solutions; transferring the top {min(plan.top, len(entries))}")
     return entries[:plan.top]
+
+
+def _final_pick(run: Path) -> str | None:
+    """The file name of the run's final-validation pick in its archive (None: not validated, or no pick)."""
+    record = run / "final_validation.json"
+    if not record.exists():
+        return None
+    chosen = read_versioned_json(record, FINAL_KIND).get("chosen")
+    return None if chosen is None else Path(chosen["file"]).name
 
 
 def transfer_tests(champ: Champion, plan: ExperimentPlan) -> dict[str, Any]:

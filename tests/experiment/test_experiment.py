@@ -159,6 +159,17 @@ def test_small_experiment_end_to_end_and_report_only(tmp_path):
     stamps = [p.stat().st_mtime_ns for p in records]
     assert main(["experiment", "--report-only", "--final-family", "1", "--out", str(out)]) == 2
     assert stamps == [p.stat().st_mtime_ns for p in records]
+    assert ExperimentPlan.load(out) == replace(plan, final_validation=2, final_sequential=1)  # the plan unchanged
+    # --final-engine batch validates again, the sequential stage in the compiled core; --general-from
+    # final_validation transfers each run's pick (these runs have none: their archives' most general stand in)
+    assert main(["experiment", "--report-only", "--final-engine", "batch", "--general-from", "final_validation",
+                 "--out", str(out)]) == 0
+    assert ExperimentPlan.load(out) == replace(plan, final_validation=2, final_sequential=1, final_engine="batch",
+                                               general_from="final_validation")
+    assert stamps != [p.stat().st_mtime_ns for p in records]
+    assert all(json.loads(p.read_text())["sequential"]["engine"] == "batch" for p in records)
+    md = (out / "results.md").read_text()
+    assert "`--final-engine batch`" in md and "`--general-from final_validation`" in md
 
 
 def test_interrupted_experiment_resumes_bit_identically(tmp_path):

@@ -174,3 +174,84 @@ def test_the_family_stage_chooses_the_team_that_turns_where_one_side_opens(tmp_p
         validate_final_population(out, family_episodes=2)
     with pytest.raises(ValueError, match="family_episodes must be a non-negative integer"):
         validate_final_population(out, sequential_teams=1, family_episodes=-1)
+
+
+def test_the_batch_engine_plays_the_stage_in_the_compiled_core_and_chooses_as_pymunk_does(tmp_path, capsys):
+    """engine "batch": seq1's seed 3 and seed 15 picks planted as above; every candidate's counts are the core's
+    own protocol episodes (keys BATCH_SEQUENTIAL_KEY + e on plus, BATCH_FAMILY_KEY + i on the family's maps), the
+    choice is seed 15's (as in pymunk), the record names the engine, and the CLI takes --engine."""
+    from mahn_envs.core.sequential import play_sequential
+    from mahn_envs.maps.variants import spread_variant
+    from mahn_evo.evaluation.final_population import BATCH_FAMILY_KEY, BATCH_SEQUENTIAL_KEY
+
+    out = tmp_path / "variants"
+    assert main(["train", "--preset", "best-restarts", "--generations", "1", "--pop", "12", "--seed", "5", "--quiet",
+                 "--episodes", "2", "--map-branch", "49", "--branch-sides", "one_short", "--plain-episodes", "1",
+                 "--noise-draws", "per_generation", "--out", str(out)]) == 0
+    _plant(out, SEQ1 / "situational_s003.json", 2)
+    _plant(out, SEQ1 / "situational_s015.json", 7)
+    plain = validate_final_population(out, episodes=3, write=False)
+    teams = sum(r["noise_free_solved"] for r in plain["top"])
+    record = validate_final_population(out, episodes=3, sequential_teams=teams, sequential_episodes=4,
+                                       family_episodes=6, engine="batch")
+    seq = record["sequential"]
+    assert (seq["engine"], seq["first_key"], seq["family"]["first_episode_key"]) == \
+        ("batch", BATCH_SEQUENTIAL_KEY, BATCH_FAMILY_KEY)
+    config, population = final_population(out)
+    worlds = [spread_variant(5, FAMILY_KEY + i, 0.0, 49.0, "one_short") for i in range(6)]
+    noisy = task_params("generalization")
+    for row in seq["ranking"]:
+        team = team_reading(TeamEvaluator(config.evaluation).decode([population.genomes[row["index"]]]),
+                            row["reading"]).team(0)
+        on_plus = [play_sequential("plus", team, noisy, seed=5, episode_keys=[BATCH_SEQUENTIAL_KEY + e])
+                   for e in range(4)]
+        on_family = [play_sequential(w, team, noisy, seed=5, episode_keys=[BATCH_FAMILY_KEY + i])
+                     for i, w in enumerate(worlds)]
+        assert row["sequential_successes"] == sum(int(r.success[0]) for r in on_plus)
+        assert row["family_successes"] == sum(int(r.success[0]) for r in on_family)
+        assert row["family_stages"] == pytest.approx(sum(r.stages_completed[0] for r in on_family) / 54)
+    assert record["chosen"]["index"] == 7
+    by_team = {i: max(r["family_successes"] for r in seq["ranking"] if r["index"] == i) for i in (2, 7)}
+    assert (by_team[7], by_team[2]) == (6, 2)  # the turner succeeds on every variant, the other on 2 of 6
+    assert main(["final-validation", str(out), "--episodes", "3", "--sequential", str(teams), "--engine", "batch",
+                 "--family-episodes", "6"]) == 0
+    assert "of 6 on its plus variants" in capsys.readouterr().out
+    with pytest.raises(ValueError, match="engine must be one of"):
+        validate_final_population(out, sequential_teams=1, engine="box2d")
+
+
+def test_general_from_final_validation_transfers_the_pick_not_the_archives_most_general(tmp_path):
+    """A run whose archive holds seq1's seed 15 pick (all 25 noisy training episodes on plus in the published
+    generalisation test) and whose final population holds seed 3's (20 of 25): the final validation can only pick
+    seed 3's; the report's team of the run is the archive's most general (seed 15's) with general_from "archive"
+    and the pick with "final_validation"."""
+    import shutil
+    from dataclasses import replace as replaced
+
+    from mahn_evo.evaluation.generalize import generalize
+    from mahn_evo.experiment.plan import ExperimentPlan
+    from mahn_evo.experiment.table import RunRecord
+    from mahn_evo.experiment.transfer import most_general
+
+    out = tmp_path / "runs" / "situational_s005"
+    assert main(["train", "--preset", "best-restarts", "--generations", "1", "--pop", "12", "--seed", "5", "--quiet",
+                 "--episodes", "2", "--map-branch", "49", "--branch-sides", "one_short", "--plain-episodes", "1",
+                 "--noise-draws", "per_generation", "--out", str(out)]) == 0
+    (out / "archive").mkdir(exist_ok=True)
+    shutil.copy(SEQ1 / "situational_s015.json", out / "archive" / "solution_g00000_i0001.json")
+    _plant(out, SEQ1 / "situational_s003.json", 7)
+    record = validate_final_population(out, episodes=3, sequential_teams=4, sequential_episodes=2, engine="batch")
+    pick = record["chosen"]["file"].split("/")[-1]
+    assert record["chosen"]["index"] == 7
+    plan = ExperimentPlan(modes=("situational",), runs=1, seed=5, general_episodes=4, final_validation=3)
+    rows = generalize(out, episodes=4, map="plus", seed=5)
+    assert rows[0]["file"] == "solution_g00000_i0001.json" != pick  # the archive's most general is not the pick
+    run = RunRecord(out.name, "situational", 5, out, True, 1, True, 0, 166.0, 1.0, np.zeros(1))
+    assert most_general(plan, [run], "situational", log=lambda _: None)[0]["file"].endswith(rows[0]["file"])
+    chosen = most_general(replaced(plan, general_from="final_validation"), [run], "situational",
+                          log=lambda _: None)[0]
+    assert chosen["file"].endswith(pick) and chosen["solution"]
+    with pytest.raises(ValueError, match="give final_validation"):
+        replaced(plan, final_validation=0, general_from="final_validation")
+    with pytest.raises(ValueError, match="general_from must be one of"):
+        replaced(plan, general_from="best")
