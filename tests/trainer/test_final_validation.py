@@ -35,6 +35,14 @@ def _tiny_run(tmp_path: Path, name: str = "run") -> Path:
     return out
 
 
+def _variants_run(out: Path) -> Path:
+    """A one-generation run trained on one-sided plus variants (a family for the family stage)."""
+    assert main(["train", "--preset", "best-restarts", "--generations", "1", "--pop", "12", "--seed", "5", "--quiet",
+                 "--episodes", "2", "--map-branch", "49", "--branch-sides", "one_short", "--plain-episodes", "1",
+                 "--noise-draws", "per_generation", "--out", str(out)]) == 0
+    return out
+
+
 def _plant(run: Path, champion: Path, index: int) -> None:
     """Put a published solution's CPPN into the run's final population at `index` (a real genome, decoded and
     played like any other)."""
@@ -138,10 +146,7 @@ def test_the_family_stage_chooses_the_team_that_turns_where_one_side_opens(tmp_p
     test map) and seed 15's (turns: 10 of 10 on both) planted in the final population of a run trained on one-sided
     variants: both succeed on plus (2 of 2 sequential episodes each); on the run's own variants only seed 15's does,
     and the family stage ranks by both."""
-    out = tmp_path / "variants"
-    assert main(["train", "--preset", "best-restarts", "--generations", "1", "--pop", "12", "--seed", "5", "--quiet",
-                 "--episodes", "2", "--map-branch", "49", "--branch-sides", "one_short", "--plain-episodes", "1",
-                 "--noise-draws", "per_generation", "--out", str(out)]) == 0
+    out = _variants_run(tmp_path / "variants")
     _plant(out, SEQ1 / "situational_s003.json", 2)
     _plant(out, SEQ1 / "situational_s015.json", 7)
     plain = validate_final_population(out, episodes=3, write=False)
@@ -184,10 +189,7 @@ def test_the_batch_engine_plays_the_stage_in_the_compiled_core_and_chooses_as_py
     from mahn_envs.maps.variants import spread_variant
     from mahn_evo.evaluation.final_population import BATCH_FAMILY_KEY, BATCH_SEQUENTIAL_KEY
 
-    out = tmp_path / "variants"
-    assert main(["train", "--preset", "best-restarts", "--generations", "1", "--pop", "12", "--seed", "5", "--quiet",
-                 "--episodes", "2", "--map-branch", "49", "--branch-sides", "one_short", "--plain-episodes", "1",
-                 "--noise-draws", "per_generation", "--out", str(out)]) == 0
+    out = _variants_run(tmp_path / "variants")
     _plant(out, SEQ1 / "situational_s003.json", 2)
     _plant(out, SEQ1 / "situational_s015.json", 7)
     plain = validate_final_population(out, episodes=3, write=False)
@@ -233,10 +235,7 @@ def test_general_from_final_validation_transfers_the_pick_not_the_archives_most_
     from mahn_evo.experiment.table import RunRecord
     from mahn_evo.experiment.transfer import most_general
 
-    out = tmp_path / "runs" / "situational_s005"
-    assert main(["train", "--preset", "best-restarts", "--generations", "1", "--pop", "12", "--seed", "5", "--quiet",
-                 "--episodes", "2", "--map-branch", "49", "--branch-sides", "one_short", "--plain-episodes", "1",
-                 "--noise-draws", "per_generation", "--out", str(out)]) == 0
+    out = _variants_run(tmp_path / "runs" / "situational_s005")
     (out / "archive").mkdir(exist_ok=True)
     shutil.copy(SEQ1 / "situational_s015.json", out / "archive" / "solution_g00000_i0001.json")
     _plant(out, SEQ1 / "situational_s003.json", 7)
