@@ -141,16 +141,22 @@ def test_the_sequential_stage_chooses_the_team_that_survives_the_real_world_prot
 SEQ1 = Path(__file__).parents[2] / "docs" / "results" / "experiment_sequential_seeds_1_15" / "champions"
 
 
+def _straight_and_turner(tmp_path: Path) -> tuple[Path, int]:
+    """A run on one-sided variants with seq1's seed 3 pick (does not turn where one side opens alone) at index 2
+    and seed 15's (turns) at index 7 of its final population, and how many (team, reading)s solve noise-free."""
+    out = _variants_run(tmp_path / "variants")
+    _plant(out, SEQ1 / "situational_s003.json", 2)
+    _plant(out, SEQ1 / "situational_s015.json", 7)
+    plain = validate_final_population(out, episodes=3, write=False)
+    return out, sum(r["noise_free_solved"] for r in plain["top"])
+
+
 def test_the_family_stage_chooses_the_team_that_turns_where_one_side_opens(tmp_path, capsys):
     """seq1's seed 3 pick (no turn where one side opens alone: 10 of 10 validation episodes on plus, 1 of 10 on the
     test map) and seed 15's (turns: 10 of 10 on both) planted in the final population of a run trained on one-sided
     variants: both succeed on plus (2 of 2 sequential episodes each); on the run's own variants only seed 15's does,
     and the family stage ranks by both."""
-    out = _variants_run(tmp_path / "variants")
-    _plant(out, SEQ1 / "situational_s003.json", 2)
-    _plant(out, SEQ1 / "situational_s015.json", 7)
-    plain = validate_final_population(out, episodes=3, write=False)
-    teams = sum(r["noise_free_solved"] for r in plain["top"])
+    out, teams = _straight_and_turner(tmp_path)
     record = validate_final_population(out, episodes=3, sequential_teams=teams, sequential_episodes=2,
                                        family_episodes=3)
     family = record["sequential"]["family"]
@@ -189,11 +195,7 @@ def test_the_batch_engine_plays_the_stage_in_the_compiled_core_and_chooses_as_py
     from mahn_envs.maps.variants import spread_variant
     from mahn_evo.evaluation.final_population import BATCH_FAMILY_KEY, BATCH_SEQUENTIAL_KEY
 
-    out = _variants_run(tmp_path / "variants")
-    _plant(out, SEQ1 / "situational_s003.json", 2)
-    _plant(out, SEQ1 / "situational_s015.json", 7)
-    plain = validate_final_population(out, episodes=3, write=False)
-    teams = sum(r["noise_free_solved"] for r in plain["top"])
+    out, teams = _straight_and_turner(tmp_path)
     record = validate_final_population(out, episodes=3, sequential_teams=teams, sequential_episodes=4,
                                        family_episodes=6, engine="batch")
     seq = record["sequential"]
