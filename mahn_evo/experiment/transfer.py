@@ -81,7 +81,8 @@ def most_general(plan: ExperimentPlan, runs: list[RunRecord], mode: str,
         rows = generalize(r.folder, episodes=plan.general_episodes, map=plan.map, seed=plan.seed)
         top = rows[0]
         if plan.general_from == "final_validation":
-            top = next((row for row in rows if row["file"] == _final_pick(r.folder)), top)
+            pick = _final_pick(r.folder)  # read once, not per archived solution
+            top = next((row for row in rows if row["file"] == pick), top)
         archived = r.folder / "archive" / top["file"]
         path = archived if archived.exists() else r.folder / top["file"]
         entries.append({"run": r.name, "seed": r.seed, "file": str(path.relative_to(r.folder.parent.parent)),
