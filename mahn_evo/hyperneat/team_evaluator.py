@@ -134,13 +134,8 @@ class EvaluationSettings:
         if self.map_spread > 0.0 and self.map != "plus":
             raise ValueError(f"map_spread draws variants of the plus map (its arm lengths), so it needs map 'plus', "
                              f"got map {self.map!r}")
-        if isinstance(self.plain_episodes, bool) or not isinstance(self.plain_episodes, int) \
-                or not 0 <= self.plain_episodes <= self.episodes:
-            raise ValueError(f"plain_episodes must be an integer in [0, episodes = {self.episodes}], got "
-                             f"{self.plain_episodes!r}")
-        if self.plain_episodes and not self.on_variants:
-            raise ValueError("plain_episodes keeps some keyed episodes on the map instead of its variants, so it "
-                             "needs map_spread or map_branch > 0 (without them every episode is on the map)")
+        _check_on_map_count("plain_episodes", self.plain_episodes, "episodes", self.episodes, "keyed",
+                            self.on_variants)
         if self.cppn_activation == "relax" and not self.evaluate_modules:
             raise ValueError("cppn_activation 'relax' always evaluates the Multiply modules (as the original's "
                              "MultipleSteps does): it cannot be combined with evaluate_modules = false")
@@ -149,13 +144,8 @@ class EvaluationSettings:
         if isinstance(self.sequential_episodes, bool) or not isinstance(self.sequential_episodes, int) \
                 or self.sequential_episodes < 0:
             raise ValueError(f"sequential_episodes must be a non-negative integer, got {self.sequential_episodes!r}")
-        if isinstance(self.sequential_plain, bool) or not isinstance(self.sequential_plain, int) \
-                or not 0 <= self.sequential_plain <= self.sequential_episodes:
-            raise ValueError(f"sequential_plain must be an integer in [0, sequential_episodes = "
-                             f"{self.sequential_episodes}], got {self.sequential_plain!r}")
-        if self.sequential_plain and not self.on_variants:
-            raise ValueError("sequential_plain keeps some sequential episodes on the map instead of its variants, so "
-                             "it needs map_spread or map_branch > 0 (without them every episode is on the map)")
+        _check_on_map_count("sequential_plain", self.sequential_plain, "sequential_episodes",
+                            self.sequential_episodes, "sequential", self.on_variants)
         if isinstance(self.noise_free_variants, bool) or not isinstance(self.noise_free_variants, int) \
                 or self.noise_free_variants < 0:
             raise ValueError(f"noise_free_variants must be a non-negative integer, got {self.noise_free_variants!r}")
@@ -165,6 +155,16 @@ class EvaluationSettings:
         if not isinstance(self.seed, int):  # not numpy ints either: a run's configuration is saved as JSON
             raise TypeError(f"seed must be an integer in [0, 2**64), got {self.seed!r}")
         check_seed(self.seed, "seed")
+
+
+def _check_on_map_count(field: str, value: object, of_field: str, of_value: int, kind: str, on_variants: bool) -> None:
+    """`field` says how many of a generation's `of_field` episodes stay on the map itself: an integer in
+    [0, of_value], and only meaningful when the other episodes are on variants (else every episode is on the map)."""
+    if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value <= of_value:
+        raise ValueError(f"{field} must be an integer in [0, {of_field} = {of_value}], got {value!r}")
+    if value and not on_variants:
+        raise ValueError(f"{field} keeps some {kind} episodes on the map instead of its variants, so it needs "
+                         "map_spread or map_branch > 0 (without them every episode is on the map)")
 
 
 #: the first key of the sequential-protocol episodes (below 2**32: start jitter is drawn from the key's low 32 bits)
