@@ -126,14 +126,42 @@ def tune(method: str, out: str | Path, trials: int = DEFAULT_TRIALS, steps: int 
         try:
             run.run(report)
             value = objective_value(run.train_rows)
+            _record_cost(trial, run.train_rows)
             study.tell(trial, value)
             log(f"[tune] trial {trial.number}: {value:.4f}  {settings}")
         except optuna.TrialPruned:
             run.finish()
+            _record_cost(trial, run.train_rows)
             study.tell(trial, state=TrialState.PRUNED)
             log(f"[tune] trial {trial.number} pruned at update {run.update}")
         _write_cost(study, out, method, steps)
     return _write_cost(study, out, method, steps)
+
+
+#: the trial's cost as user attributes of the journal, so study.jsonl alone carries the search and its cost
+COST_FIELDS = ("steps", "wall_time", "cpu_seconds")
+
+
+def _record_cost(trial: Any, train_rows: list[dict[str, Any]]) -> None:
+    """Store the trial's robot-steps, wall and CPU seconds (its train log's last row) in the journal: the study
+    file is what is kept between sessions (trial folders hold checkpoints and are not), and the tuning cost must
+    survive with it."""
+    if train_rows:
+        for field in COST_FIELDS:
+            trial.set_user_attr(field, float(train_rows[-1][field]))
+
+
+def _trial_cost(attrs: dict[str, Any]) -> dict[str, Any] | None:
+    """A finished trial's cost: from the journal (`_record_cost`), else (studies from before it) the last row of
+    its folder's train log, if the folder is still there; None if neither is."""
+    if all(field in attrs for field in COST_FIELDS):
+        return {field: attrs[field] for field in COST_FIELDS}
+    run_dir = attrs.get("run_dir")
+    if run_dir and (Path(run_dir) / "train_log.csv").exists():
+        rows = read_csv(Path(run_dir) / "train_log.csv")
+        if rows:
+            return rows[-1]
+    return None
 
 
 def _write_cost(study: Any, out: Path, method: str, steps: int) -> dict[str, Any]:
@@ -141,13 +169,13 @@ def _write_cost(study: Any, out: Path, method: str, steps: int) -> dict[str, Any
 
     robot_steps, wall, cpu = 0, 0.0, 0.0
     for t in study.get_trials(deepcopy=False):
-        run_dir = t.user_attrs.get("run_dir")
-        if run_dir and t.state in (TrialState.COMPLETE, TrialState.PRUNED):
-            rows = read_csv(Path(run_dir) / "train_log.csv") if (Path(run_dir) / "train_log.csv").exists() else []
-            if rows:
-                robot_steps += int(rows[-1]["steps"])
-                wall += float(rows[-1]["wall_time"])
-                cpu += float(rows[-1]["cpu_seconds"])
+        if t.state not in (TrialState.COMPLETE, TrialState.PRUNED):
+            continue
+        last = _trial_cost(t.user_attrs)
+        if last is not None:
+            robot_steps += int(last["steps"])
+            wall += float(last["wall_time"])
+            cpu += float(last["cpu_seconds"])
     done = [t for t in study.get_trials(deepcopy=False) if t.state == TrialState.COMPLETE]
     best = max(done, key=lambda t: t.value) if done else None
     cost = {"method": method, "steps_per_trial": steps,

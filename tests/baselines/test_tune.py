@@ -54,3 +54,14 @@ def test_objective_is_the_mean_of_the_last_tenth():
     assert objective_value(rows) == pytest.approx(18.5)
     with pytest.raises(ValueError):
         objective_value([])
+
+
+def test_the_journal_alone_carries_the_tuning_cost(tmp_path):
+    """Trial folders (checkpoints) are not kept between sessions, the study file is: the cost must survive."""
+    import shutil
+
+    before = tune("ppo_ff", tmp_path, trials=2, steps=1, base=TINY, log=lambda s: None)
+    assert before["robot_steps"] > 0
+    shutil.rmtree(tmp_path / "trials")
+    after = tune("ppo_ff", tmp_path, trials=2, steps=1, base=TINY, log=lambda s: None)  # nothing left to run
+    assert after == before
