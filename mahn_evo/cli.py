@@ -157,9 +157,9 @@ def _eval_parser(sub) -> None:
     p.add_argument("--engine", default="kinematic", choices=["kinematic", "pymunk"],
                    help="kinematic: the compiled simulator the team was trained in (default); pymunk: contact "
                         "physics, for robots that bump into each other")
-    p.add_argument("--episodes", type=int, default=1,
-                   help="episodes to average (default 1; without noise every episode is the same, so more than one "
-                        "only matters with --noise or a noise level)")
+    p.add_argument("--episodes", type=int,
+                   help="episodes to average (default 1, 10 with --noise-parts; without noise every episode is the "
+                        "same, so more than one only matters with --noise or a noise level)")
     p.add_argument("--seed", type=int, default=0,
                    help="seed of the noise and start perturbations (default 0); same seed, same scores")
     p.add_argument("--noise", default="none", help="noise preset: none or generalization")
@@ -180,6 +180,10 @@ def _eval_parser(sub) -> None:
                    help="also report how firmly the team decides (training protocol, first episode): the "
                         "fraction of decisions that are exact ties or near-ties (< 0.001), a sign of a "
                         "team that noise or real robots will break")
+    p.add_argument("--noise-parts", action="store_true",
+                   help="which part of the noise breaks the team: the same episodes (--episodes, default here 10) "
+                        "under the whole noise, none, and each noise level of the preset alone, one line each "
+                        "(needs --noise generalization or a noise level)")
     p.add_argument("--json", action="store_true", help="print the result as JSON")
 
 
@@ -551,6 +555,10 @@ def cmd_eval(args) -> int:
     params = task_params(args.noise, sensor_noise=args.sensor_noise, effector_noise=args.effector_noise,
                          heading_noise=args.heading_noise, start_jitter_xy=args.start_jitter_xy,
                          start_jitter_heading=args.start_jitter_heading)
+    if args.noise_parts:
+        return _eval_noise_parts(args, params, 10 if args.episodes is None else args.episodes)
+    if args.episodes is None:
+        args.episodes = 1
     if args.protocol == "sequential":
         from .evaluation.eval_champion import champion_policy
         from .evaluation.protocols import sequential, sequential_summary
@@ -602,6 +610,23 @@ def cmd_eval(args) -> int:
                   f"{100 * m['near_tie_fraction']:.1f}% near-ties (< 0.001); median margin "
                   f"{m['median_margin']:.3g}, median top output {m['median_top_output']:.7f}; "
                   f"{m['flipped']} decision(s) flipped by input jitter of +-{m['probe']:g}")
+    return 0
+
+
+def _eval_noise_parts(args, params, episodes: int) -> int:
+    """`mahn-evo eval --noise-parts`: the team's episodes once per part of the noise."""
+    from .evaluation.noise_parts import noise_parts, noise_parts_summary
+
+    if args.video or args.plot or args.margins:
+        raise ValueError("--noise-parts plays the episodes once per part of the noise: it does not combine with "
+                         "--video, --plot or --margins (run those without it)")
+    rows = noise_parts(args.champion, params, map=args.map, protocol=args.protocol, engine=args.engine,
+                       episodes=episodes, seed=args.seed)
+    if args.json:
+        print(json.dumps({"map": args.map, "protocol": args.protocol, "episodes": episodes, "seed": args.seed,
+                          "parts": rows}, indent=1))
+    else:
+        print(noise_parts_summary(rows, args.protocol, episodes, args.map))
     return 0
 
 

@@ -23,6 +23,10 @@ def check_flag(value: object, field: str) -> bool:
     return bool(value)
 
 
+#: the task's noise levels: IR sensors, effectors (speed and turn rate), heading per tick, start position and heading
+NOISE_FIELDS = ("sensor_noise", "effector_noise", "heading_noise", "start_jitter_xy", "start_jitter_heading")
+
+
 @dataclass(frozen=True)
 class TaskParams:
     """Episode timing, noise and rule switches.  Every default reproduces the original system.
@@ -53,7 +57,7 @@ class TaskParams:
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
                 raise ValueError(f"TaskParams.{name} must be a positive integer, got {value!r}")
-        for name in ("sensor_noise", "effector_noise", "heading_noise", "start_jitter_xy", "start_jitter_heading"):
+        for name in NOISE_FIELDS:
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)) \
                     or not math.isfinite(value) or value < 0:
@@ -71,8 +75,14 @@ class TaskParams:
 
     def without_noise(self) -> TaskParams:
         """The same task with every noise level (sensor, effector, heading, start jitter) at 0."""
-        return replace(self, sensor_noise=0.0, effector_noise=0.0, heading_noise=0.0, start_jitter_xy=0.0,
-                       start_jitter_heading=0.0)
+        return replace(self, **{name: 0.0 for name in NOISE_FIELDS})
+
+    def only_noise(self, name: str) -> TaskParams:
+        """The same task with one noise level (a NOISE_FIELDS name) kept and the others at 0: which part of the
+        noise a team fails under (`mahn-evo eval --noise-parts`)."""
+        if name not in NOISE_FIELDS:
+            raise ValueError(f"unknown noise level {name!r}; choose one of {NOISE_FIELDS}")
+        return replace(self.without_noise(), **{name: getattr(self, name)})
 
     @classmethod
     def from_mapping(cls, data: dict) -> TaskParams:
