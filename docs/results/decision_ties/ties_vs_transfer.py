@@ -77,7 +77,8 @@ def summary(table: list[dict]) -> str:
                      f"Mann-Whitney p = {u.pvalue:.2g}")
     both = np.array([min(int(r["plus_of_10"]), int(r["asymmetric_plus_of_10"])) for r in table])
     rho = stats.spearmanr([float(r["tied_fraction"]) for r in table], both)
-    lines.append(f"Spearman tied_fraction vs the weaker map's successes: rho = {rho.statistic:.2f}, p = {rho.pvalue:.2g}")
+    lines.append(f"Spearman tied_fraction vs the weaker map's successes: rho = {rho.statistic:.2f}, "
+                 f"p = {rho.pvalue:.2g}")
     zero = np.array([int(r["flipped"]) == 0 for r in table])
     lines.append(f"teams with no decision flipped: {zero.sum()}, of them robust {(zero & robust).sum()}; "
                  f"teams with flips: {(~zero).sum()}, robust {(~zero & robust).sum()}")
