@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass, fields, replace
+from typing import Any
 
 import numpy as np
 
@@ -75,14 +76,16 @@ class TaskParams:
 
     def without_noise(self) -> TaskParams:
         """The same task with every noise level (sensor, effector, heading, start jitter) at 0."""
-        return replace(self, **{name: 0.0 for name in NOISE_FIELDS})
+        zeros: dict[str, Any] = {name: 0.0 for name in NOISE_FIELDS}
+        return replace(self, **zeros)
 
     def only_noise(self, name: str) -> TaskParams:
         """The same task with one noise level (a NOISE_FIELDS name) kept and the others at 0: which part of the
         noise a team fails under (`mahn-evo eval --noise-parts`)."""
         if name not in NOISE_FIELDS:
             raise ValueError(f"unknown noise level {name!r}; choose one of {NOISE_FIELDS}")
-        return replace(self.without_noise(), **{name: getattr(self, name)})
+        kept: dict[str, Any] = {name: getattr(self, name)}
+        return replace(self.without_noise(), **kept)
 
     @classmethod
     def from_mapping(cls, data: dict) -> TaskParams:
