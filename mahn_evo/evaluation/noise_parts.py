@@ -42,11 +42,12 @@ def noise_parts(champion: Champion | str | Path, params: TaskParams, map: str = 
     if isinstance(episodes, bool) or not isinstance(episodes, int) or episodes < 1:
         raise ValueError(f"episodes must be a positive integer, got {episodes!r}")
     champ = champion if isinstance(champion, Champion) else Champion.load(champion)
+    policy = champion_policy(champ) if protocol == "sequential" else None
     rows = []
     for name, part in noise_part_params(params).items():
         row: dict[str, Any] = {"noise": name, "params": {n: getattr(part, n) for n in NOISE_FIELDS}}
-        if protocol == "sequential":
-            result = sequential(champion_policy(champ), map=map, params=champ.task(part), episodes=episodes, seed=seed)
+        if policy is not None:
+            result = sequential(policy, map=map, params=champ.task(part), episodes=episodes, seed=seed)
             row["success_fraction"] = sum(result["solved"]) / episodes
             row["stages"] = sum(result["fitness"]) / episodes
         else:

@@ -27,19 +27,10 @@ from mahn_envs.core.sequential import S_HOME, S_OUT, S_POST, SequentialSettings,
 from mahn_envs.maps import load_map  # noqa: E402
 from mahn_envs.maps.variants import spread_variant  # noqa: E402
 from mahn_envs.policies.team_controllers import TeamControllers  # noqa: E402
+from mahn_evo.evaluation.noise_parts import noise_part_params  # noqa: E402
 from mahn_evo.evaluation.task_setup import task_params  # noqa: E402
 
-COMPONENTS = ("sensor_noise", "effector_noise", "heading_noise", "start_jitter_xy", "start_jitter_heading")
 FIELDS = ("run", "pool", "noise", "map", "mean_successes_of_20", "teams_ge16", "posts_of_3", "home_of_3", "out_of_3")
-
-
-def settings() -> dict:
-    """noise setting name -> TaskParams (before the run's reflex)."""
-    full = task_params("generalization")
-    out = {"all": full, "none": task_params("none")}
-    for c in COMPONENTS:
-        out[f"{c} only"] = replace(task_params("none"), **{c: getattr(full, c)})
-    return out
 
 
 def measure(run: Path, episodes: int = 20) -> list[dict]:
@@ -52,7 +43,7 @@ def measure(run: Path, episodes: int = 20) -> list[dict]:
             "variants": ([spread_variant(config.seed, STUDY_KEY + FAMILY_OFFSET + i, ev.map_spread, ev.map_branch,
                                          ev.branch_sides) for i in range(episodes)], STUDY_KEY + FAMILY_OFFSET)}
     rows = []
-    for name, params in settings().items():
+    for name, params in noise_part_params(task_params("generalization")).items():
         task = sequential_task(replace(params, reflex_arc=config.task.reflex_arc), SequentialSettings())
         for label, (worlds, first_key) in maps.items():
             wins = np.zeros(len(teams))
