@@ -110,6 +110,10 @@ def _fidelity_and_robustness_options(p: argparse.ArgumentParser) -> None:
                    help="with --reflex-arc: start (default: every generation) or robust_phase (with --robust-from "
                         "first_solution: the original's reflex until the robust phase, so the search is the "
                         "faithful run's and only the hardening uses the arcing reflex)")
+    p.add_argument("--input-ceiling", type=float, metavar="C",
+                   help="beyond the paper: a sensor value at or above C (in [0.5, 1]) reads 1, so the sensor noise "
+                        "cannot move the input of open space (default 1: the original's encoding; the champion "
+                        "files record it and every evaluation and deploy encodes the team's inputs so)")
     p.add_argument("--fitness-memory", choices=FITNESS_MEMORY,
                    help="under noise with --noise-draws per_generation: generation (default: a team's fitness is "
                         "its score in this generation, as the paper), lifetime (the mean of its scores over every "
@@ -397,7 +401,9 @@ def experiment_plan(args: argparse.Namespace) -> ExperimentPlan:
                              for k, v in _analysis_options(args).items()},
                           max_cycles=args.max_cycles, signal_tick=args.signal_tick, neat=neat,
                           reflex_arc=base.task.reflex_arc if args.reflex_arc is None else args.reflex_arc,
-                          reflex_arc_from=args.reflex_arc_from or base.reflex_arc_from, **fields)
+                          reflex_arc_from=args.reflex_arc_from or base.reflex_arc_from,
+                          input_ceiling=base.task.input_ceiling if args.input_ceiling is None else args.input_ceiling,
+                          **fields)
 
 
 def _analysis_options(args) -> dict[str, Any]:
@@ -504,6 +510,8 @@ def cmd_train(args) -> int:
         config = replace(config, task=replace(config.task, reflex_arc=config.task.reflex_arc if args.reflex_arc is None
                                               else args.reflex_arc),
                          reflex_arc_from=args.reflex_arc_from or config.reflex_arc_from)
+    if args.input_ceiling is not None:
+        config = replace(config, task=replace(config.task, input_ceiling=args.input_ceiling))
     from .storage.folder_lock import folder_lock
 
     with folder_lock(args.out, "run folder"):
@@ -539,7 +547,7 @@ def _trajectory_png(champion_path: Path, map_name: str, out_png: Path) -> dict:
     from .training.champion import Champion
 
     champ = Champion.load(champion_path)
-    sim = BatchSim(map_name, 1)
+    sim = BatchSim(map_name, 1, champ.task())  # driven with the team's own settings (reflex, input ceiling)
     res = sim.run_controllers(champ.controllers, record=True)
     assert res.trajectories is not None  # record=True records them
     trajectory_plot(sim.world, res.trajectories[0], out_png,

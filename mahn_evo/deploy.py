@@ -75,6 +75,20 @@ def _champion_driving(driving: Any, data: Mapping[str, Any], path: str | Path) -
     return replace(driving or Driving(), reflex_arc=arc)
 
 
+def _champion_sensing(sensing: Any, data: Mapping[str, Any], path: str | Path) -> Any:
+    """`sensing` (default Sensing()) with the input ceiling the champion was evolved with (its `input_ceiling`,
+    1, the original's encoding, in files before it): the robots encode their readings as the team learned them."""
+    from mahn_envs.hardware import Sensing
+
+    if sensing is not None and not isinstance(sensing, Sensing):
+        raise TypeError(f"env_kwargs['sensing'] must be a Sensing record, got {type(sensing).__name__}")
+    ceiling = data.get("input_ceiling", 1.0)
+    try:
+        return replace(sensing or Sensing(), input_ceiling=ceiling)
+    except ValueError as exc:
+        raise ValueError(f"champion file {str(path)!r}: field 'input_ceiling': {exc}") from None
+
+
 def _fmt(v: float) -> str:
     return "" if v is None or (isinstance(v, float) and not math.isfinite(v)) else f"{v:.6g}"
 
@@ -116,6 +130,7 @@ def deploy(champion_path: str | Path, ports: Sequence[str] | None = None, *,
     team, data = load_team(champion_path)
     map_name = kwargs.get("map") or data.get("map", "plus")
     kwargs["driving"] = _champion_driving(kwargs.get("driving"), data, champion_path)
+    kwargs["sensing"] = _champion_sensing(kwargs.get("sensing"), data, champion_path)
     n = team.n_robots
     if emulate:
         if ports:

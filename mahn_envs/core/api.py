@@ -98,20 +98,21 @@ def readings_from_ranges(distances: Sequence[float] | np.ndarray,
 
 
 def encode_inputs(readings: Sequence[Sequence[float]] | np.ndarray, signal: Sequence[float] | np.ndarray,
-                  floor: float = DEFAULT_MODEL.sensor_floor) -> np.ndarray:
+                  floor: float = DEFAULT_MODEL.sensor_floor, ceiling: float = 1.0) -> np.ndarray:
     """The network inputs (R, 7) float32 of R robots: each of the six un-floored sensor values (R, 6) capped at
-    1 and read as 0 at or below `floor`, then the robot's come-home signal (0 or 1)."""
+    1, read as 1 at or above `ceiling` (TaskParams.input_ceiling; 1 changes nothing) and as 0 at or below
+    `floor`, then the robot's come-home signal (0 or 1)."""
     q = np.asarray(readings, dtype=np.float32)
     if q.ndim != 2 or q.shape[1] != 6:
         raise ValueError(f"readings must have shape (robots, 6), got {q.shape}")
     sig = np.asarray(signal, dtype=np.float32)
     if sig.shape != (q.shape[0],):
         raise ValueError(f"signal must hold one value per robot ({q.shape[0]}), got shape {sig.shape}")
-    f_floor = np.float32(floor)
+    f_floor, f_ceil = np.float32(floor), np.float32(ceiling)
     out = np.empty((q.shape[0], 7), dtype=np.float32)
     for r in range(q.shape[0]):
         for j in range(6):
-            out[r, j] = T.input_value(q[r, j], f_floor)
+            out[r, j] = T.input_value(q[r, j], f_floor, f_ceil)
     out[:, 6] = sig
     return out
 

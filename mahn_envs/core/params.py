@@ -28,6 +28,12 @@ def check_flag(value: object, field: str) -> bool:
 NOISE_FIELDS = ("sensor_noise", "effector_noise", "heading_noise", "start_jitter_xy", "start_jitter_heading")
 
 
+#: the task fields that belong to a team rather than to a test: how its inputs are encoded and how the reflex
+#: changes its actions.  A team is evolved with them, so every evaluation of it (eval, generalisation, transfer
+#: tests, deploy on robots) must drive it with the same values; champion files record them.
+TEAM_FIELDS = ("reflex_arc", "input_ceiling")
+
+
 @dataclass(frozen=True)
 class TaskParams:
     """Episode timing, noise and rule switches.  Every default reproduces the original system.
@@ -52,6 +58,10 @@ class TaskParams:
     #: of keeping the velocity, so a standing robot asked to go forward beside a wall moves (core.task.steer)
     reflex_arc: bool = False
     auto_signal: bool = True
+    #: beyond the original: a sensor value at or above it is read as 1 (open), so the sensor noise cannot move the
+    #: input of a ray that sees nothing near (an open ray reads exactly 1 without noise, and within +-noise of 1
+    #: with it); 1 is the original's encoding, where it changes nothing (core.task.input_value)
+    input_ceiling: float = 1.0
 
     def __post_init__(self) -> None:
         for name in ("max_cycles", "signal_tick", "sample_period"):
@@ -65,6 +75,11 @@ class TaskParams:
                 raise ValueError(f"TaskParams.{name} must be a finite number >= 0, got {value!r}")
         for name in ("robots_see_each_other", "reflex", "reflex_arc", "auto_signal"):
             check_flag(getattr(self, name), f"TaskParams.{name}")
+        c = self.input_ceiling
+        if isinstance(c, bool) or not isinstance(c, (int, float, np.floating, np.integer)) or not math.isfinite(c) \
+                or not 0.5 <= c <= 1.0:
+            raise ValueError(f"TaskParams.input_ceiling must be a number in [0.5, 1] (1: the original's encoding), "
+                             f"got {c!r}")
         if self.effector_noise >= 100:
             raise ValueError("TaskParams.effector_noise must be below 100 (percent), or robots would reverse")
         if self.signal_tick % self.sample_period != 0:
@@ -95,6 +110,18 @@ class TaskParams:
             raise ValueError(f"unknown task parameter(s) {sorted(unknown)}; known: {sorted(names)}")
         return cls(**data)
 
+    def team_settings(self) -> dict[str, Any]:
+        """The fields a team is evolved with and must be driven with wherever it runs (TEAM_FIELDS)."""
+        return {name: getattr(self, name) for name in TEAM_FIELDS}
+
+    def with_team_settings(self, settings: TaskParams | dict[str, Any]) -> TaskParams:
+        """This task with the team settings of `settings` (a TaskParams or a mapping of TEAM_FIELDS)."""
+        values = settings.team_settings() if isinstance(settings, TaskParams) else dict(settings)
+        unknown = set(values) - set(TEAM_FIELDS)
+        if unknown:
+            raise ValueError(f"not team settings: {sorted(unknown)}; team settings are {TEAM_FIELDS}")
+        return replace(self, **values)
+
     def vector(self, model: KheperaModel = DEFAULT_MODEL) -> np.ndarray:
         """The float64 parameter vector the compiled kernels read (indices in core.task)."""
         v = np.zeros(T.N_PARAMS, dtype=np.float64)
@@ -114,4 +141,5 @@ class TaskParams:
         v[T.P_SEE] = 1.0 if self.robots_see_each_other else 0.0
         v[T.P_AUTOSIG] = 1.0 if self.auto_signal else 0.0
         v[T.P_REFLEX] = (2.0 if self.reflex_arc else 1.0) if self.reflex else 0.0
+        v[T.P_CEIL] = self.input_ceiling
         return v

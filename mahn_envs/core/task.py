@@ -27,7 +27,8 @@ from .rng import CH_HEADING, CH_SENSOR, CH_SPEED, CH_TURN, uniform
 # indices into the float64 parameter vector built by TaskParams.vector()
 P_RADIUS, P_SPEED, P_TURN, P_DT, P_IR, P_RANGE, P_FLOOR = 0, 1, 2, 3, 4, 5, 6
 P_SNOISE, P_ENOISE, P_HNOISE, P_MAXT, P_PERIOD, P_SIGT, P_SEE, P_AUTOSIG, P_REFLEX = 7, 8, 9, 10, 11, 12, 13, 14, 15
-N_PARAMS = 16
+P_CEIL = 16
+N_PARAMS = 17
 
 # pose / racc / rflag / est columns
 X, Y, H, V = 0, 1, 2, 3
@@ -60,9 +61,11 @@ def unit_reading(d, f_radius, f_ir):
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def input_value(s, f_floor):
-    """The network input of a float32 sensor value: capped at 1, and 0 at or below the floor (0.25)."""
-    if s > np.float32(1.0):
+def input_value(s, f_floor, f_ceil):
+    """The network input of a float32 sensor value: capped at 1, 1 at or above the ceiling, and 0 at or below
+    the floor (0.25).  The ceiling (TaskParams.input_ceiling) is 1 in the original, where it changes nothing;
+    below 1 it reads a nearly open ray as open, so sensor noise cannot move the input of open space."""
+    if s >= f_ceil:
         s = np.float32(1.0)
     if s <= f_floor:
         s = np.float32(0.0)
@@ -75,13 +78,14 @@ def encode_episode(b, tick, raw, obs, rflag, params, seed, key):
     f_radius = np.float32(params[P_RADIUS])
     f_ir = np.float32(params[P_IR])
     f_floor = np.float32(params[P_FLOOR])
+    f_ceil = np.float32(params[P_CEIL])
     noise = params[P_SNOISE] / 100.0
     for r in range(raw.shape[1]):
         for j in range(6):
             s = unit_reading(raw[b, r, j], f_radius, f_ir)
             if noise > 0.0:
                 s = np.float32(s + np.float32(noise * (2.0 * uniform(seed, key, tick, r, CH_SENSOR + j) - 1.0)))
-            obs[b, r, j] = input_value(s, f_floor)
+            obs[b, r, j] = input_value(s, f_floor, f_ceil)
         obs[b, r, 6] = np.float32(rflag[b, r, F_SIGNAL])
 
 

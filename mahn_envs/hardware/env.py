@@ -174,6 +174,7 @@ class KheperaHardwareEnv(ParallelEnv):
         speed_units = self._check_speed_units(driving.speed_unit, n)
         self.calibration = sensing.calibration
         self.sensor_floor = sensing.floor(model)
+        self.input_ceiling = float(sensing.input_ceiling)
         self.period = timing.tick_seconds(model)
         self.clock = timing.make_clock()
         self.params = episode.task_params()
@@ -341,7 +342,7 @@ class KheperaHardwareEnv(ParallelEnv):
         return arr
 
     def _observations(self) -> dict[str, np.ndarray]:
-        obs = encode_inputs(self._q, self._score.signals, self.sensor_floor)
+        obs = encode_inputs(self._q, self._score.signals, self.sensor_floor, self.input_ceiling)
         return {a: obs[k] for k, a in enumerate(self.agents)}
 
     def _info(self, k: int, extra: dict | None = None) -> dict[str, Any]:

@@ -122,6 +122,9 @@ class Sensing:
     calibration: Any = "paper"
     #: Observations at or below it read 0; None: the model's (0.25, as in simulation).
     sensor_floor: float | None = None
+    #: Observations at or above it read 1 (TaskParams.input_ceiling; 1, the original's, changes nothing).  Teams
+    #: evolved with a ceiling need it; `mahn-evo deploy` sets it from the champion file.
+    input_ceiling: float = 1.0
 
     def __post_init__(self) -> None:
         try:
@@ -131,6 +134,10 @@ class Sensing:
         v = self.sensor_floor
         _check(v is None or (_is_number(v) and 0.0 <= v < 1.0), "Sensing", "sensor_floor",
                f"must be in [0, 1) or None, got {v!r}")
+        try:  # the task's own check of the value (one rule, written once)
+            TaskParams(input_ceiling=self.input_ceiling)
+        except ValueError as exc:
+            raise ValueError(f"Sensing.input_ceiling: {exc}") from None
 
     def floor(self, model: KheperaModel) -> float:
         return float(model.sensor_floor if self.sensor_floor is None else self.sensor_floor)

@@ -16,7 +16,6 @@ episodes solved, then the best mean fitness, then the lowest population index an
 """
 from __future__ import annotations
 
-from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -110,9 +109,9 @@ def validate_final_population(run_dir: str | Path, episodes: int = 25, sequentia
     genomes = population.genomes
     controllers = TeamEvaluator(ev).decode(genomes)
     readings = READINGS if config.symmetry == "best" else ("none",)
-    reflex = config.task.reflex_arc
-    clean = replace(config.task.without_noise(), reflex_arc=reflex)
-    noisy = replace(task_params("generalization"), reflex_arc=reflex)
+    team = config.task.team_settings()
+    clean = config.task.without_noise()
+    noisy = task_params("generalization").with_team_settings(team)
     keys = [VALIDATION_KEY + i for i in range(episodes)]
     rows: list[dict[str, Any]] = []
     batches = {reading: team_reading(controllers, reading) for reading in readings}
@@ -130,7 +129,7 @@ def validate_final_population(run_dir: str | Path, episodes: int = 25, sequentia
     def champion(row: dict[str, Any]) -> Champion:
         return Champion(mode=config.mode, fitness=row["mean_fitness"], solved=True, generation=gen,
                         genome=genomes[row["index"]], controllers=batches[row["reading"]].team(row["index"]),
-                        seed=config.seed, map=config.map, reflex_arc=reflex)
+                        seed=config.seed, map=config.map, **team)
 
     record: dict[str, Any] = {"generation": gen, "episodes": episodes, "seed": config.seed,
                               "first_key": VALIDATION_KEY, "noise": "generalization", "teams": len(rows),
@@ -194,8 +193,7 @@ def _batch_sequential_stage(rows: list[dict[str, Any]], teams: list[TeamControll
     candidates of an episode in one batch; writes the counts into `rows` as the pymunk stage does."""
     if not rows:
         return
-    task = sequential_task(replace(task_params("generalization"), reflex_arc=config.task.reflex_arc),
-                           SequentialSettings())
+    task = sequential_task(task_params("generalization").with_team_settings(config.task), SequentialSettings())
     ctrl = TeamControllers.stack(teams)
     n, stages = len(rows), 3 * ctrl.n_robots
     plays = [(load_map(config.map), BATCH_SEQUENTIAL_KEY + e, "sequential") for e in range(episodes)]

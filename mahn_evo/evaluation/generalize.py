@@ -56,15 +56,16 @@ def generalize(run_dir: str | Path, episodes: int = 25, map: str = "plus", param
         raise ValueError(f"solutions of one run must share a mode, found {sorted(modes)}")
     n = len(champs)
     fit, solved = np.zeros((n, episodes)), np.zeros((n, episodes), dtype=bool)
-    # each solution is driven with the reflex it was scored with (a run with reflex_arc_from "robust_phase" has
-    # both); the same episode keys for every solution, so the ranking compares teams on the same noise
-    for arc in sorted({c.reflex_arc for c in champs}):
-        idx = [i for i, c in enumerate(champs) if c.reflex_arc == arc]
+    # each solution is driven with the team settings it was scored with (a run with reflex_arc_from
+    # "robust_phase" has both reflexes); the same episode keys for every solution, so the ranking compares teams on
+    # the same noise
+    for settings in sorted({tuple(c.team_settings().values()) for c in champs}):
+        idx = [i for i, c in enumerate(champs) if tuple(c.team_settings().values()) == settings]
         teams = TeamControllers.stack([champs[i].controllers for i in idx])
         fit[idx], solved[idx] = keyed_episodes(teams, map, champs[idx[0]].task(params), seed, range(episodes))
     rows: list[dict[str, Any]] = []
     for i, (f, c) in enumerate(zip(files, champs)):
-        rows.append({"file": f.name, "generation": c.generation, "reflex_arc": c.reflex_arc,
+        rows.append({"file": f.name, "generation": c.generation, **c.team_settings(),
                      "training_fitness": c.fitness,
                      "mean_fitness": float(fit[i].mean()), "std_fitness": float(fit[i].std()),
                      "solved_fraction": float(solved[i].mean())})

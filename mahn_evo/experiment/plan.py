@@ -95,6 +95,7 @@ class ExperimentPlan:
     replays: int = 1  # most general solutions per mode filmed in each protocol and map (GIFs)
     reflex_arc: bool = False  # the arcing reflex (TaskParams.reflex_arc), beyond the paper
     reflex_arc_from: str = "start"  # or "robust_phase" (see EvolutionConfig.reflex_arc_from)
+    input_ceiling: float = 1.0  # sensor values at or above it read 1 (TaskParams.input_ceiling), beyond the paper
     max_cycles: int = 1364  # shorter only for smoke tests
     signal_tick: int = 690
     neat: Mapping[str, Any] = field(default_factory=dict)  # NeatSettings overrides (e.g. from a config file)
@@ -154,7 +155,8 @@ class ExperimentPlan:
             base = EvolutionConfig.from_mapping({**base.to_dict(), "neat": {**base.neat.to_dict(), **self.neat,
                                                                          "population_size": self.population}})
         task = base.task.to_dict()
-        task.update(max_cycles=self.max_cycles, signal_tick=self.signal_tick, reflex_arc=self.reflex_arc)
+        task.update(max_cycles=self.max_cycles, signal_tick=self.signal_tick, reflex_arc=self.reflex_arc,
+                    input_ceiling=self.input_ceiling)
         return EvolutionConfig.from_mapping({**base.to_dict(), "task": task, "reflex_arc_from": self.reflex_arc_from})
 
     def tasks(self, out: str | Path) -> list[tuple[str, int, Path]]:

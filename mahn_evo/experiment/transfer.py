@@ -151,7 +151,7 @@ def trajectories(champ: Champion, seed: int = 0) -> dict[str, tuple[np.ndarray, 
     """Paths for the figure: (T, R, >=2) per map and protocol, with the signal tick where there is one."""
     paths: dict[str, tuple[np.ndarray, int | None]] = {}
     for m in TRANSFER_MAPS:
-        sim = BatchSim(m, 1)
+        sim = BatchSim(m, 1, champ.task())  # driven with the team's own settings, as everywhere
         res = sim.run_controllers(champ.controllers, record=True)
         assert res.trajectories is not None  # record=True records them
         paths[f"{m} / training"] = (res.trajectories[0], sim.params.signal_tick)

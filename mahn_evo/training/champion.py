@@ -6,7 +6,7 @@ inspected or evolved further.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -35,19 +35,27 @@ class Champion:
     map: str = "plus"
     #: the reflex variant the team was evolved with (TaskParams.reflex_arc); files before it have the original's
     reflex_arc: bool = False
+    #: the input ceiling the team was evolved with (TaskParams.input_ceiling); files before it have the original's
+    input_ceiling: float = 1.0
 
     def task(self, params: TaskParams | None = None) -> TaskParams:
-        """`params` (default: the noise-free task) with this team's reflex variant.
+        """`params` (default: the noise-free task) with this team's settings (TEAM_FIELDS: reflex variant, input
+        ceiling).
 
-        Why: a team evolved with the arcing reflex meets other situations than the original's reflex gives it, so
-        every evaluation of a champion (eval, generalisation, margins, transfer tests, deploy) drives it with the
-        reflex it was evolved with."""
-        return replace(params if params is not None else TaskParams(), reflex_arc=self.reflex_arc)
+        Why: a team evolved with the arcing reflex or an input ceiling meets other situations and inputs than the
+        original's task gives it, so every evaluation of a champion (eval, generalisation, margins, transfer tests,
+        deploy) drives it with the settings it was evolved with."""
+        return (params if params is not None else TaskParams()).with_team_settings(self.team_settings())
+
+    def team_settings(self) -> dict[str, Any]:
+        """The task settings this team was evolved with (TEAM_FIELDS)."""
+        return {"reflex_arc": self.reflex_arc, "input_ceiling": self.input_ceiling}
 
     def to_dict(self) -> dict[str, Any]:
         return versioned(KIND, {
             "mode": self.mode, "fitness": self.fitness, "solved": self.solved, "generation": self.generation,
-            "seed": self.seed, "map": self.map, "reflex_arc": self.reflex_arc, "cppn": self.genome.to_dict(),
+            "seed": self.seed, "map": self.map, "reflex_arc": self.reflex_arc,
+            "input_ceiling": self.input_ceiling, "cppn": self.genome.to_dict(),
             "controllers": self.controllers.to_dict()})
 
     def save(self, path: str | Path) -> None:
@@ -66,7 +74,9 @@ class Champion:
                         solved=_flag(data["solved"], "solved"), generation=_count(data["generation"], "generation"),
                         genome=Genome.from_dict(data["cppn"]),
                         controllers=TeamControllers.from_dict(data["controllers"]), seed=data["seed"],
-                        map=data["map"], reflex_arc=_flag(data.get("reflex_arc", False), "reflex_arc"))
+                        map=data["map"], reflex_arc=_flag(data.get("reflex_arc", False), "reflex_arc"),
+                        input_ceiling=_number(data.get("input_ceiling", 1.0), "input_ceiling"))
+            champ.task()  # the task's own check of the team settings (e.g. an input ceiling out of range)
         except (KeyError, TypeError, ValueError, AttributeError, IndexError) as exc:
             raise ValueError(f"{where} is missing or has a malformed field: {exc}") from exc
         _check_controllers_match_cppn(champ, where)

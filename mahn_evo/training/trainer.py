@@ -294,7 +294,8 @@ class Trainer:
         return Champion(mode=self.config.mode, fitness=float(ev.fitness[index]) if fitness is None else fitness,
                         solved=bool(ev.solved[index] >= 1),
                         generation=gen, genome=genome, controllers=ev.controllers.team(index),
-                        seed=self.config.seed, map=self.config.map, reflex_arc=self._reflex_arc)
+                        seed=self.config.seed, map=self.config.map, reflex_arc=self._reflex_arc,
+                        input_ceiling=self.config.task.input_ceiling)
 
     def _record_best(self, gen: int, genomes, ev, best: int) -> None:
         if ev.fitness[best] > self.best_fitness:
