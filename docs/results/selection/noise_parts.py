@@ -14,7 +14,6 @@ from __future__ import annotations
 import argparse
 import csv
 import sys
-from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -44,7 +43,7 @@ def measure(run: Path, episodes: int = 20) -> list[dict]:
                                          ev.branch_sides) for i in range(episodes)], STUDY_KEY + FAMILY_OFFSET)}
     rows = []
     for name, params in noise_part_params(task_params("generalization")).items():
-        task = sequential_task(replace(params, reflex_arc=config.task.reflex_arc), SequentialSettings())
+        task = sequential_task(params.with_team_settings(config.task), SequentialSettings())
         for label, (worlds, first_key) in maps.items():
             wins = np.zeros(len(teams))
             stages = np.zeros((len(teams), 3))

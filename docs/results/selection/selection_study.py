@@ -20,7 +20,6 @@ import argparse
 import csv
 import json
 import sys
-from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -49,7 +48,7 @@ def pool(run: Path) -> tuple[EvolutionConfig, list[TeamControllers], list[str]]:
     config, population = final_population(run)
     ctrl = TeamEvaluator(config.evaluation).decode(population.genomes)
     readings = READINGS if config.symmetry == "best" else ("none",)
-    clean = replace(config.task.without_noise(), reflex_arc=config.task.reflex_arc)
+    clean = config.task.without_noise()
     teams, names = [], []
     for reading in readings:
         batch = team_reading(ctrl, reading)
@@ -66,7 +65,7 @@ def pool(run: Path) -> tuple[EvolutionConfig, list[TeamControllers], list[str]]:
 def core_successes(config: EvolutionConfig, teams: list[TeamControllers], worlds: list[World],
                    first_key: int) -> np.ndarray:
     """Each team's successes over one compiled-core noisy sequential episode per world (keys first_key + w)."""
-    task = sequential_task(replace(task_params("generalization"), reflex_arc=config.task.reflex_arc),
+    task = sequential_task(task_params("generalization").with_team_settings(config.task),
                            SequentialSettings())
     ctrl = TeamControllers.stack(teams)
     total = np.zeros(len(teams), dtype=int)
@@ -91,8 +90,8 @@ def study(run: Path, episodes: int = 20, verify: int = 3) -> dict:
     for i in order[:verify]:
         policy = champion_policy(Champion(mode=config.mode, fitness=0.0, solved=True, generation=0,
                                           genome=None, controllers=teams[i], seed=config.seed,  # type: ignore[arg-type]
-                                          map=config.map, reflex_arc=config.task.reflex_arc))
-        noisy = replace(task_params("generalization"), reflex_arc=config.task.reflex_arc)
+                                          map=config.map, **config.task.team_settings()))
+        noisy = task_params("generalization").with_team_settings(config.task)
         row = {"name": names[i], "plus_batch": int(on_plus[i]), "family_batch": int(on_family[i])}
         for m in ("plus", "asymmetric_plus"):
             row[m] = int(sum(sequential(policy, map=m, params=noisy, episodes=10, seed=1)["solved"]))
