@@ -137,6 +137,20 @@ def _robust_text(plan: dict[str, Any]) -> str:
     return f"; {text}"
 
 
+def _team_text(plan: dict[str, Any]) -> str:
+    """The task settings the teams were evolved with beyond the paper's (TEAM_FIELDS: the reflex variant, the input
+    ceiling), for the report's first line ('' for the original's)."""
+    text = ""
+    if plan.get("reflex_arc"):
+        text += "; the arcing reflex (`--reflex-arc`" + (
+            ", from the robust phase on: `--reflex-arc-from robust_phase`)"
+            if plan.get("reflex_arc_from") == "robust_phase" else ")")
+    ceiling = float(plan.get("input_ceiling", 1.0))
+    if ceiling < 1.0:
+        text += f"; sensor values at or above {ceiling:g} read 1 (`--input-ceiling {ceiling:g}`)"
+    return text
+
+
 def _selection_text(plan: dict[str, Any]) -> str:
     """The team's symmetry and how NEAT selected, for the report's first line ('' for the paper's: robots painted
     at their own z, selection by fitness alone)."""
@@ -160,7 +174,7 @@ def markdown(results: dict[str, Any]) -> str:
              f"{plan['seed'] + plan['runs'] - 1}); population {plan['population']}; at most {plan['generations']} "
              f"generations; init `{plan['init']}`"
              f"{' with Multiply modules evaluated' if plan['evaluate_modules'] else ''}"
-             f"; map `{plan['map']}`; episodes of {plan['max_cycles']} ticks{_robust_text(plan)}"
+             f"; map `{plan['map']}`; episodes of {plan['max_cycles']} ticks{_robust_text(plan)}{_team_text(plan)}"
              f"{_selection_text(plan)}. Written by "
              "`mahn-evo experiment`.", "",
              "## Solved runs", "",

@@ -14,6 +14,7 @@ from mahn_envs.hardware import Sensing
 from mahn_evo.cli import build_parser, experiment_plan, main
 from mahn_evo.deploy import _champion_sensing
 from mahn_evo.evaluation.eval_champion import evaluate_champion
+from mahn_evo.experiment.report import _team_text
 from mahn_evo.storage.files import read_versioned_json
 from mahn_evo.training.champion import Champion
 from mahn_evo.training.config import EvolutionConfig
@@ -98,3 +99,6 @@ def test_an_experiment_plan_carries_the_ceiling_into_each_run():
     assert plan.train_config("situational", 1).task.input_ceiling == 0.95
     default = experiment_plan(build_parser().parse_args(["experiment", "--out", "x", "--runs", "1"]))
     assert default.train_config("situational", 1).task.input_ceiling == 1.0
+    # the report's first line names it (and nothing for the original's encoding)
+    assert "(`--input-ceiling 0.95`)" in _team_text(plan.to_dict())
+    assert _team_text(default.to_dict()) == ""
