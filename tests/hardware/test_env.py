@@ -247,3 +247,17 @@ def test_firmware_without_B_falls_back_to_the_default_speed_unit():
                              link=Link(opener=opener), driving=Driving(speed_unit=150.0))
     assert env.speed_units == [150.0]
     env.close()
+
+
+def test_the_input_ceiling_reads_near_open_values_as_open_on_robots(make_env):
+    """Sensing.input_ceiling (TaskParams.input_ceiling): a calibrated 0.96 reads 1 with a ceiling of 0.95, and
+    stays 0.96 with the original's encoding."""
+    def near_open(raw):
+        return np.full(np.shape(raw), 0.96)
+
+    env, _ = make_env(sensing=Sensing(calibration=near_open, input_ceiling=0.95))
+    obs, _ = env.reset()
+    assert np.all(obs["robot_0"][:6] == 1.0)
+    env2, _ = make_env(sensing=Sensing(calibration=near_open))
+    obs, _ = env2.reset()
+    assert np.allclose(obs["robot_0"][:6], 0.96) and np.all(obs["robot_0"][:6] < 1.0)
