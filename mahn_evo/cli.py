@@ -32,7 +32,9 @@ def _fidelity_and_robustness_options(p: argparse.ArgumentParser) -> None:
                         "differs), hardened (iros2011-multistep, then hardened under noise from 50 generations "
                         "after the first solution: for teams that go to robots) or best-restarts (iros2011-multistep "
                         "with --symmetry best --restart-every 150: the published experiment's configuration, 15/15 "
-                        "situational runs solved); flags and --config override it")
+                        "situational runs solved) or hardened-sequential (best-restarts with a one-sided start, then "
+                        "hardened with noisy training and sequential-protocol episodes on plus and its variants: "
+                        "run it with --stop-when-solved --after-solved 150); flags and --config override it")
     p.add_argument("--cppn-activation", choices=CPPN_ACTIVATIONS,
                    help="recursive (default: the original's one depth-first pass, recurrent CPPN links add 0) or "
                         "relax (its MultipleSteps relaxation: modules and recurrent links live)")

@@ -210,7 +210,27 @@ def test_presets_set_the_originals_fields_and_flags_still_override():
     assert (multistep.init, multistep.evaluate_modules, multistep.cppn_activation) == ("iros2011", True, "relax")
     assert (multistep.neat.species_order, multistep.neat.stagnation_rule) == (code.neat.species_order,
                                                                               code.neat.stagnation_rule)
-    assert set(PRESETS) == {"iros2011-code", "iros2011-multistep", "iros2011-paper", "hardened", "best-restarts"}
+    assert set(PRESETS) == {"iros2011-code", "iros2011-multistep", "iros2011-paper", "hardened", "best-restarts",
+                            "hardened-sequential"}
+
+
+def test_the_hardened_sequential_preset_is_the_nfb1s_command():
+    """`--preset hardened-sequential` plans exactly the experiment written out flag by flag
+    (docs/results/selection/nfb1s.md), so its runs are those runs."""
+    from mahn_evo.cli import build_parser, experiment_plan
+
+    common = "experiment --out x --modes situational --runs 15 --seed 1 --generations 1000 --after-solved 150"
+    flags = (" --preset best-restarts --noise generalization --episodes 3 --noise-draws per_generation "
+             "--noise-free-episode --aggregate mean --map-branch 49 --branch-sides one_short --plain-episodes 1 "
+             "--sequential-episodes 2 --sequential-plain 1 --noise-free-branch 49 --robust-from first_solution "
+             "--robust-delay 50 --fitness-memory lifetime")
+    spelled = experiment_plan(build_parser().parse_args((common + flags).split()))
+    preset = experiment_plan(build_parser().parse_args((common + " --preset hardened-sequential").split()))
+    assert preset == spelled
+    config = apply_preset(EvolutionConfig(), "hardened-sequential")
+    assert (config.robust_from, config.noise_free_branch, config.fitness_memory) == ("first_solution", 49.0,
+                                                                                     "lifetime")
+    assert config.task.sensor_noise > 0 and config.evaluation.sequential_plain == 1
 
 
 def test_cli_preset_reaches_the_run_config(tmp_path):
