@@ -13,6 +13,7 @@ from typing import Any
 import numpy as np
 
 from mahn_envs.core import TaskParams
+from mahn_envs.core.params import TEAM_FIELDS
 from mahn_envs.policies.team_controllers import _FIELDS as CONTROLLER_FIELDS
 from mahn_envs.policies.team_controllers import TeamControllers
 
@@ -49,7 +50,7 @@ class Champion:
 
     def team_settings(self) -> dict[str, Any]:
         """The task settings this team was evolved with (TEAM_FIELDS)."""
-        return {"reflex_arc": self.reflex_arc, "input_ceiling": self.input_ceiling}
+        return {name: getattr(self, name) for name in TEAM_FIELDS}
 
     def to_dict(self) -> dict[str, Any]:
         return versioned(KIND, {
