@@ -284,7 +284,7 @@ def cmd_final_validation(args) -> int:
 def _experiment_parser(sub) -> None:
     from .evaluation.final_population import ENGINES
     from .experiment.backends import BACKENDS
-    from .experiment.plan import GENERAL_FROM, ExperimentPlan
+    from .experiment.plan import GENERAL_FROM, GENERAL_RANKS, ExperimentPlan
 
     d = ExperimentPlan()
     p = sub.add_parser("experiment", help="the paper's table: seeded runs per mode, generalisation, transfer, figures")
@@ -329,6 +329,11 @@ def _experiment_parser(sub) -> None:
                    help="each run's team for the generalisation ranking and the transfer tests: archive (its most "
                         "general archived solution) or final_validation (the final validation's pick, so a team "
                         f"chosen for the sequential protocol is the one tested; default {d.general_from})")
+    p.add_argument("--general-rank", choices=GENERAL_RANKS,
+                   help="how the runs' teams are ranked for the most general: generalization (the paper's test, "
+                        "noisy training episodes on the map) or protocol (with --general-from final_validation and "
+                        "--final-sequential: the pick's successes in the final validation's noisy sequential "
+                        f"episodes on the map and its plus variants; default {d.general_rank})")
     p.add_argument("--max-cycles", type=int, default=d.max_cycles, help=argparse.SUPPRESS)
     p.add_argument("--signal-tick", type=int, default=d.signal_tick, help=argparse.SUPPRESS)
     p.add_argument("--config", type=Path, help="TOML or JSON file whose `neat` table overrides NEAT settings")
@@ -413,7 +418,7 @@ def _analysis_options(args) -> dict[str, Any]:
     return {"top": args.top, "general_episodes": args.general_episodes, "transfer_episodes": args.transfer_episodes,
             "final_validation": args.final_validation, "final_sequential": args.final_sequential,
             "final_family": args.final_family, "final_engine": args.final_engine,
-            "general_from": args.general_from}
+            "general_from": args.general_from, "general_rank": args.general_rank}
 
 
 def cmd_experiment(args) -> int:

@@ -200,11 +200,15 @@ def markdown(results: dict[str, Any]) -> str:
                       f"{test['modes'][1]}: table {test['table']}, p = {test['p_value']:.3g} "
                       f"(paper: p {PAPER['fisher_p']})."]
     from_final = plan.get("general_from", "archive") == "final_validation"
+    by_protocol = plan.get("general_rank", "generalization") == "protocol"
     lines += ["", "## Most general solutions and transfer", "",
               ("Per run, the final validation's pick (below; `--general-from final_validation`; a run without one: "
                "its archived solution with the best score), scored over " if from_final else
                "Per run, the archived solution with the best score over ") +
-              f"{plan['general_episodes']} noisy episodes on `{plan['map']}`; the best of those from distinct runs. "
+              f"{plan['general_episodes']} noisy episodes on `{plan['map']}`; the best of those from distinct runs"
+              + (" by the pick's successes in the final validation's noisy sequential episodes on the map and its "
+                 "plus variants, the generalisation score breaking ties (`--general-rank protocol`; the general "
+                 "column's third number)" if by_protocol else "") + ". "
               + (f"Each run's archive also holds the best noise-free solution of its final population on "
                  f"{plan['final_validation']} validation episodes of its own (`mahn-evo final-validation`)"
                  + (f"; of its {plan['final_sequential']} best, the one that succeeds most often in 10 noisy "
@@ -232,7 +236,9 @@ def markdown(results: dict[str, Any]) -> str:
     for mode, entries in results["most_general"].items():
         for e in entries:
             row = (f"| {mode} | {e['run']} | {e['generation']} | {'yes' if e['solution'] else 'no'} | "
-                   f"{e['general_solved_fraction']:.2f} / {e['general_mean_fitness']:.1f} | {_ties(e)} |")
+                   f"{e['general_solved_fraction']:.2f} / {e['general_mean_fitness']:.1f}"
+                   + (f" / {e['validation_protocol_successes']}" if "validation_protocol_successes" in e else "")
+                   + f" | {_ties(e)} |")
             for m in TRANSFER_MAPS:
                 t = e["transfer"][m]
                 row += (f" {'solved' if t['training']['solved'] else 'not solved'} ({t['training']['fitness']:.1f})"

@@ -80,30 +80,43 @@ def most_general(plan: ExperimentPlan, runs: list[RunRecord], mode: str,
             continue
         rows = generalize(r.folder, episodes=plan.general_episodes, map=plan.map, seed=plan.seed)
         top = rows[0]
-        if plan.general_from == "final_validation":
-            pick = _final_pick(r.folder)  # read once, not per archived solution
-            top = next((row for row in rows if row["file"] == pick), top)
+        chosen = _final_pick(r.folder) if plan.general_from == "final_validation" else None
+        if chosen is not None:
+            top = next((row for row in rows if row["file"] == Path(chosen["file"]).name), top)
         archived = r.folder / "archive" / top["file"]
         path = archived if archived.exists() else r.folder / top["file"]
-        entries.append({"run": r.name, "seed": r.seed, "file": str(path.relative_to(r.folder.parent.parent)),
-                        "solution": archived.exists(), "generation": top["generation"],
-                        "training_fitness": top["training_fitness"], "candidates": len(rows),
-                        "general_solved_fraction": top["solved_fraction"],
-                        "general_mean_fitness": top["mean_fitness"], "general_std_fitness": top["std_fitness"]})
-    entries.sort(key=lambda e: (not e["solution"], -e["general_solved_fraction"], -e["general_mean_fitness"],
-                                e["run"]))
-    log(f"{mode}: {len(entries)} run(s) ranked by generalisation, {sum(e['solution'] for e in entries)} with "
+        entry = {"run": r.name, "seed": r.seed, "file": str(path.relative_to(r.folder.parent.parent)),
+                 "solution": archived.exists(), "generation": top["generation"],
+                 "training_fitness": top["training_fitness"], "candidates": len(rows),
+                 "general_solved_fraction": top["solved_fraction"],
+                 "general_mean_fitness": top["mean_fitness"], "general_std_fitness": top["std_fitness"]}
+        if plan.general_rank == "protocol":
+            entry["validation_protocol_successes"] = _protocol_successes(chosen, top["file"])
+        entries.append(entry)
+    entries.sort(key=lambda e: (not e["solution"], -e.get("validation_protocol_successes", 0),
+                                -e["general_solved_fraction"], -e["general_mean_fitness"], e["run"]))
+    by = ("the final validation's sequential successes, then generalisation" if plan.general_rank == "protocol"
+          else "generalisation")
+    log(f"{mode}: {len(entries)} run(s) ranked by {by}, {sum(e['solution'] for e in entries)} with "
         f"solutions; transferring the top {min(plan.top, len(entries))}")
     return entries[:plan.top]
 
 
-def _final_pick(run: Path) -> str | None:
-    """The file name of the run's final-validation pick in its archive (None: not validated, or no pick)."""
+def _final_pick(run: Path) -> dict[str, Any] | None:
+    """The run's final-validation pick as its record says (None: not validated, or no pick)."""
     record = run / "final_validation.json"
     if not record.exists():
         return None
-    chosen = read_versioned_json(record, FINAL_KIND).get("chosen")
-    return None if chosen is None else Path(chosen["file"]).name
+    chosen: dict[str, Any] | None = read_versioned_json(record, FINAL_KIND).get("chosen")
+    return chosen
+
+
+def _protocol_successes(chosen: dict[str, Any] | None, file: str) -> int:
+    """The pick's noisy sequential successes in its final validation, on the map and on the run's plus variants
+    (0 for a run whose team is not the pick: it has no such score)."""
+    if chosen is None or Path(chosen["file"]).name != file:
+        return 0
+    return int(chosen.get("sequential_successes", 0)) + int(chosen.get("family_successes", 0))
 
 
 def transfer_tests(champ: Champion, plan: ExperimentPlan) -> dict[str, Any]:

@@ -170,6 +170,13 @@ def test_small_experiment_end_to_end_and_report_only(tmp_path):
     assert all(json.loads(p.read_text())["sequential"]["engine"] == "batch" for p in records)
     md = (out / "results.md").read_text()
     assert "`--final-engine batch`" in md and "`--general-from final_validation`" in md
+    assert "`--general-rank protocol`" not in md
+    # --general-rank protocol ranks by the picks' validation successes (no pick here: 0 each) and says so
+    assert main(["experiment", "--report-only", "--general-rank", "protocol", "--out", str(out)]) == 0
+    assert ExperimentPlan.load(out).general_rank == "protocol"
+    results = json.loads((out / "results.json").read_text())
+    assert all(e["validation_protocol_successes"] == 0 for es in results["most_general"].values() for e in es)
+    assert "`--general-rank protocol`" in (out / "results.md").read_text()
 
 
 def test_interrupted_experiment_resumes_bit_identically(tmp_path):

@@ -256,3 +256,42 @@ def test_general_from_final_validation_transfers_the_pick_not_the_archives_most_
         replaced(plan, final_validation=0, general_from="final_validation")
     with pytest.raises(ValueError, match="general_from must be one of"):
         replaced(plan, general_from="best")
+
+
+HARDENED = Path(__file__).parents[2] / "docs" / "results" / "experiment_hardened_sequential" / "champions"
+
+
+def test_general_rank_protocol_ranks_runs_by_their_picks_validation_successes(tmp_path):
+    """Two runs whose final populations hold rob1000's seed 5 pick (passes plus, fails the variants) and seed 14's
+    (passes both): ranked by the generalisation test on plus, seed 5's run comes first; by the final validation's
+    sequential successes on the map and its variants (`general_rank="protocol"`), seed 14's."""
+    from dataclasses import replace as replaced
+
+    from mahn_evo.experiment.plan import ExperimentPlan
+    from mahn_evo.experiment.table import RunRecord
+    from mahn_evo.experiment.transfer import most_general
+
+    runs, successes = [], {}
+    for name in ("situational_s005", "situational_s014"):
+        out = _variants_run(tmp_path / "runs" / name)
+        _plant(out, HARDENED / f"{name}.json", 7)
+        record = validate_final_population(out, episodes=4, sequential_teams=2, sequential_episodes=4,
+                                           family_episodes=6, engine="batch")
+        chosen = record["chosen"]
+        assert chosen["index"] == 7
+        successes[name] = chosen["sequential_successes"] + chosen["family_successes"]
+        runs.append(RunRecord(name, "situational", 5, out, True, 1, True, 0, 166.0, 1.0, np.zeros(1)))
+    assert successes["situational_s014"] > successes["situational_s005"]
+    plan = ExperimentPlan(modes=("situational",), runs=1, seed=5, general_episodes=8, final_validation=4,
+                          final_sequential=2, final_family=6, general_from="final_validation")
+    by_general = most_general(plan, runs, "situational", log=lambda _: None)
+    assert [e["run"] for e in by_general] == ["situational_s005", "situational_s014"]
+    assert by_general[0]["general_solved_fraction"] > by_general[1]["general_solved_fraction"]
+    assert all("validation_protocol_successes" not in e for e in by_general)
+    by_protocol = most_general(replaced(plan, general_rank="protocol"), runs, "situational", log=lambda _: None)
+    assert [e["run"] for e in by_protocol] == ["situational_s014", "situational_s005"]
+    assert {e["run"]: e["validation_protocol_successes"] for e in by_protocol} == successes
+    with pytest.raises(ValueError, match="general_rank must be one of"):
+        replaced(plan, general_rank="best")
+    with pytest.raises(ValueError, match="give general_from 'final_validation' and final_sequential"):
+        replaced(plan, general_rank="protocol", final_sequential=0, final_family=0)
