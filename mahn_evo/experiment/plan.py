@@ -40,9 +40,9 @@ GENERAL_FROM = ("archive", "final_validation")
 #: on the map) or "protocol" (with general_from "final_validation" and final_sequential: the final validation's
 #: successes in noisy sequential episodes on the map and its plus variants, the generalisation test breaking ties).
 #: Both use the training family only, never the test map.  Why "protocol": in rob1000 (docs/results/
-#: experiment_hardened_sequential/) the generalisation test ranked a run whose teams fail every plus variant third,
-#: while the runs whose picks pass the noisy protocol on the test map were exactly those with 25 or more of the 30
-#: validation successes
+#: experiment_hardened_sequential/) the generalisation test ranked a run whose teams fail its plus variants third,
+#: while 4 of the 5 runs whose picks had 25 or more of their 30 validation successes pass the noisy protocol on both
+#: maps, and none of the 9 below
 GENERAL_RANKS = ("generalization", "protocol")
 
 
@@ -97,8 +97,8 @@ class ExperimentPlan:
     final_family: int = 0
     #: the engine of the final validation's sequential stage (evaluation.final_population.ENGINES)
     final_engine: str = "pymunk"
-    #: GENERAL_FROM: "final_validation" transfers each run's final-validation pick (ranked across runs by the
-    #: generalisation test as always), so a pick chosen for the sequential protocol is the team that is tested
+    #: GENERAL_FROM: "final_validation" transfers each run's final-validation pick (ranked across runs as
+    #: general_rank says), so a pick chosen for the sequential protocol is the team that is tested
     general_from: str = "archive"
     #: GENERAL_RANKS: how the runs' teams are ranked for the top ones
     general_rank: str = "generalization"
