@@ -80,7 +80,7 @@ def most_general(plan: ExperimentPlan, runs: list[RunRecord], mode: str,
             continue
         rows = generalize(r.folder, episodes=plan.general_episodes, map=plan.map, seed=plan.seed)
         top = rows[0]
-        chosen = _final_pick(r.folder) if plan.general_from == "final_validation" else None
+        chosen = final_pick(r.folder) if plan.general_from == "final_validation" else None
         if chosen is not None:
             top = next((row for row in rows if row["file"] == Path(chosen["file"]).name), top)
         archived = r.folder / "archive" / top["file"]
@@ -102,8 +102,9 @@ def most_general(plan: ExperimentPlan, runs: list[RunRecord], mode: str,
     return entries[:plan.top]
 
 
-def _final_pick(run: Path) -> dict[str, Any] | None:
-    """The run's final-validation pick as its record says (None: not validated, or no pick)."""
+def final_pick(run: Path) -> dict[str, Any] | None:
+    """The run's final-validation pick as its final_validation.json records it (its archive file, reading and
+    validation scores; None: not validated, or no pick)."""
     record = run / "final_validation.json"
     if not record.exists():
         return None

@@ -13,18 +13,15 @@ import json
 import sys
 from pathlib import Path
 
-from mahn_evo.evaluation.final_population import KIND as FINAL_KIND
 from mahn_evo.experiment.plan import ExperimentPlan
-from mahn_evo.experiment.transfer import robust_on_every_map, transfer_tests
-from mahn_evo.storage.files import read_versioned_json
+from mahn_evo.experiment.transfer import final_pick, robust_on_every_map, transfer_tests
 from mahn_evo.training.champion import Champion
 
 
 def main(experiment: Path) -> None:
     plan = ExperimentPlan.load(experiment)
     for run in sorted((experiment / "runs").glob("*_s*")):
-        record = run / "final_validation.json"
-        chosen = read_versioned_json(record, FINAL_KIND).get("chosen") if record.exists() else None
+        chosen = final_pick(run)
         if chosen is None:
             print(json.dumps({"run": run.name, "pick": None}), flush=True)
             continue
