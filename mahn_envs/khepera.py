@@ -64,3 +64,17 @@ class KheperaModel:
 
 
 DEFAULT_MODEL = KheperaModel()
+
+
+# ---------------------------------------------------------------- the real robot's IR sensors
+#: a Khepera III IR reading is a 12-bit reflection count that rises as the gap to a wall shrinks
+IR_RAW_MAX = 4095
+#: the paper's calibration of counts to the simulator's [0, 1] scale: unit = A - (log10(raw) - B) / C, clipped
+#: (raw 30 reads 1.0, about 12 cm; raw ~1460 reads 0.25, about 2.6 cm); hardware.calibration.LogCalibration
+IR_CALIBRATION_A, IR_CALIBRATION_B, IR_CALIBRATION_C = 1.43, 0.51, 2.25
+#: relative noise (Gaussian sigma / count) of a real Khepera III IR reading against the gap in metres, from
+#: K-Team's calibration as the Webots model uses it (docs/original-system.md section 12): the emulator's sensors
+#: and the core's `sensor_model="khepera"` (TaskParams)
+IR_NOISE_GAP_M = np.array([0.0, 0.0135, 0.018, 0.0225, 0.027, 0.0405, 0.0585, 0.0675, 0.0855, 0.1035, 0.153,
+                           0.252, 0.4455])
+IR_NOISE_SIGMA = np.array([0.0015, 0.10, 0.19, 0.22, 0.23, 0.27, 0.21, 0.15, 0.12, 0.22, 0.52, 0.84, 1.0])

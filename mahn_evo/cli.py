@@ -168,7 +168,10 @@ def _eval_parser(sub) -> None:
                         "same, so more than one only matters with --noise or a noise level)")
     p.add_argument("--seed", type=int, default=0,
                    help="seed of the noise and start perturbations (default 0); same seed, same scores")
-    p.add_argument("--noise", default="none", help="noise preset: none or generalization")
+    p.add_argument("--noise", default="none", choices=sorted(NOISE_PRESETS),
+                   help="noise preset: none, generalization (the generalisation test's), or robot (its motion noise "
+                        "with a real Khepera III's IR sensors, as the emulator models them, and a reflex that reads "
+                        "them, as a robot's does)")
     for name, what in (("sensor-noise", "percent: each IR input gets +- this/100, uniform"),
                        ("effector-noise", "percent: speed and turn rate scaled by 1 +- this/100 each tick"),
                        ("heading-noise", "radians: largest heading perturbation per tick"),

@@ -1,7 +1,8 @@
 """Compiled batch loops over episodes.  Thin: every rule lives in core.task and core.controller.
 
 Numba caches these loops keyed on this file only: after changing a rule in task.py, geometry.py or
-controller.py, change this file too (even a comment), or the cache keeps running the old compiled rules.
+controller.py, change this file too (even a comment, as this line was), or the cache keeps running the old compiled
+rules.
 
 One tick of an episode is written once, `play_tick` (decide every robot's action -> move -> score -> sense
 for the next tick), in three parts that the split tick of an external engine calls one by one

@@ -62,6 +62,16 @@ class TaskParams:
     #: input of a ray that sees nothing near (an open ray reads exactly 1 without noise, and within +-noise of 1
     #: with it); 1 is the original's encoding, where it changes nothing (core.task.input_value)
     input_ceiling: float = 1.0
+    #: beyond the original: the collision-avoidance reflex reads the sensor values with the sensor noise (what the
+    #: network saw this tick, before the cap and the floor), as a real robot's reflex reads its own sensors; the
+    #: original's simulated reflex reads the noise-free rays, so teams evolved with sensor noise never meet a reflex
+    #: that noise can trip (docs/results/emulator_check/).  Changes nothing without sensor noise.
+    reflex_reads_noise: bool = False
+    #: beyond the original: how a ray becomes a sensor value (core.task.SENSOR_MODELS).  "uniform" (the original's):
+    #: gap / IR range +- sensor_noise/100 uniform.  "khepera": a real Khepera III IR sensor as the emulator makes
+    #: one, a 12-bit count by the paper's calibration with Gaussian noise of sensor_noise/100 times a real sensor's
+    #: relative noise at that gap (100 = a real sensor), rounded and calibrated back (core.task.khepera_unit)
+    sensor_model: str = "uniform"
 
     def __post_init__(self) -> None:
         for name in ("max_cycles", "signal_tick", "sample_period"):
@@ -73,8 +83,10 @@ class TaskParams:
             if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)) \
                     or not math.isfinite(value) or value < 0:
                 raise ValueError(f"TaskParams.{name} must be a finite number >= 0, got {value!r}")
-        for name in ("robots_see_each_other", "reflex", "reflex_arc", "auto_signal"):
+        for name in ("robots_see_each_other", "reflex", "reflex_arc", "auto_signal", "reflex_reads_noise"):
             check_flag(getattr(self, name), f"TaskParams.{name}")
+        if self.sensor_model not in T.SENSOR_MODELS:
+            raise ValueError(f"TaskParams.sensor_model must be one of {T.SENSOR_MODELS}, got {self.sensor_model!r}")
         c = self.input_ceiling
         if isinstance(c, bool) or not isinstance(c, (int, float, np.floating, np.integer)) or not math.isfinite(c) \
                 or not 0.5 <= c <= 1.0:
@@ -90,9 +102,10 @@ class TaskParams:
         return asdict(self)
 
     def without_noise(self) -> TaskParams:
-        """The same task with every noise level (sensor, effector, heading, start jitter) at 0."""
+        """The same task with every noise level (sensor, effector, heading, start jitter) at 0, the original's
+        sensors and the reflex reading the rays (the sensor model and reflex_reads_noise belong to the noise)."""
         zeros: dict[str, Any] = {name: 0.0 for name in NOISE_FIELDS}
-        return replace(self, **zeros)
+        return replace(self, reflex_reads_noise=False, sensor_model="uniform", **zeros)
 
     def only_noise(self, name: str) -> TaskParams:
         """The same task with one noise level (a NOISE_FIELDS name) kept and the others at 0: which part of the
@@ -100,6 +113,9 @@ class TaskParams:
         if name not in NOISE_FIELDS:
             raise ValueError(f"unknown noise level {name!r}; choose one of {NOISE_FIELDS}")
         kept: dict[str, Any] = {name: getattr(self, name)}
+        if name == "sensor_noise":  # the sensors' model, and whether the reflex reads their noise
+            kept["reflex_reads_noise"] = self.reflex_reads_noise
+            kept["sensor_model"] = self.sensor_model
         return replace(self.without_noise(), **kept)
 
     @classmethod
@@ -142,4 +158,6 @@ class TaskParams:
         v[T.P_AUTOSIG] = 1.0 if self.auto_signal else 0.0
         v[T.P_REFLEX] = (2.0 if self.reflex_arc else 1.0) if self.reflex else 0.0
         v[T.P_CEIL] = self.input_ceiling
+        v[T.P_RNOISE] = 1.0 if self.reflex_reads_noise else 0.0
+        v[T.P_SMODEL] = float(T.SENSOR_MODELS.index(self.sensor_model))
         return v

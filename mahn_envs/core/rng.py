@@ -38,6 +38,7 @@ CH_SPEED = 8
 CH_TURN = 9
 CH_HEADING = 10
 CH_ACTION = 11
+CH_SENSOR_GAUSS = 16  # + sensor index: the second uniform of a sensor's Gaussian draw (sensor_model 'khepera')
 
 
 @njit(cache=True, error_model="numpy", inline="always")

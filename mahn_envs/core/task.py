@@ -21,14 +21,21 @@ import math
 import numpy as np
 from numba import njit
 
+from ..khepera import IR_CALIBRATION_A, IR_CALIBRATION_B, IR_CALIBRATION_C, IR_NOISE_GAP_M, IR_NOISE_SIGMA, IR_RAW_MAX
 from .geometry import cast_rays_trig, touches_any_wall
-from .rng import CH_HEADING, CH_SENSOR, CH_SPEED, CH_TURN, uniform
+from .rng import CH_HEADING, CH_SENSOR, CH_SENSOR_GAUSS, CH_SPEED, CH_TURN, uniform
 
 # indices into the float64 parameter vector built by TaskParams.vector()
 P_RADIUS, P_SPEED, P_TURN, P_DT, P_IR, P_RANGE, P_FLOOR = 0, 1, 2, 3, 4, 5, 6
 P_SNOISE, P_ENOISE, P_HNOISE, P_MAXT, P_PERIOD, P_SIGT, P_SEE, P_AUTOSIG, P_REFLEX = 7, 8, 9, 10, 11, 12, 13, 14, 15
-P_CEIL = 16
-N_PARAMS = 17
+P_CEIL, P_RNOISE, P_SMODEL = 16, 17, 18
+N_PARAMS = 19
+
+#: how a ray becomes a sensor value (TaskParams.sensor_model): "uniform", the original's gap / IR range plus
+#: +-sensor_noise/100 uniform noise; "khepera", a real Khepera III IR sensor as the emulator makes one (a 12-bit
+#: count by the paper's calibration, Gaussian noise of sensor_noise/100 times a real sensor's relative noise at
+#: that gap, rounded to a count, and calibrated back): `khepera_unit`
+SENSOR_MODELS = ("uniform", "khepera")
 
 # pose / racc / rflag / est columns
 X, Y, H, V = 0, 1, 2, 3
@@ -73,19 +80,50 @@ def input_value(s, f_floor, f_ceil):
 
 
 @njit(cache=True, error_model="numpy", inline="always")
+def khepera_unit(gap, ir_range, noise, u1, u2):
+    """A Khepera III IR reading of a wall `gap` cm from the sensor, on the simulator's scale: the paper's
+    calibration turned into a 12-bit count, times 1 + noise x sigma(gap) x a standard Gaussian (Box-Muller of the
+    uniforms u1, u2; sigma is a real sensor's relative noise, IR_NOISE_SIGMA), rounded to a count and calibrated
+    back, clipped to [0, 1].  Float64 throughout, as the emulator (hardware.emulated_world) computes its replies
+    and the hardware env reads them: the same gap and Gaussian give the same value."""
+    count = 10.0 ** (IR_CALIBRATION_B + (IR_CALIBRATION_A - gap / ir_range) * IR_CALIBRATION_C)
+    if count > IR_RAW_MAX:
+        count = float(IR_RAW_MAX)
+    if noise > 0.0:
+        sigma = noise * np.interp(max(gap, 0.0) / 100.0, IR_NOISE_GAP_M, IR_NOISE_SIGMA)
+        g = math.sqrt(-2.0 * math.log(1.0 - u1)) * math.cos(2.0 * math.pi * u2)
+        count = count * (1.0 + sigma * g)
+    count = min(max(np.rint(count), 0.0), float(IR_RAW_MAX))
+    u = IR_CALIBRATION_A - (math.log10(max(count, 1.0)) - IR_CALIBRATION_B) / IR_CALIBRATION_C
+    return min(max(u, 0.0), 1.0)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def sensed_reading(b, r, j, tick, raw, params, noise, seed, key):
+    """Sensor j of robot r as sensed for tick `tick`, before the cap and the floor, in float32: by the task's sensor
+    model (SENSOR_MODELS) with noise level `noise` (sensor_noise / 100; the draws of (seed, key, tick, r, sensor j))."""
+    if params[P_SMODEL] > 0.5:
+        u1 = 0.0
+        u2 = 0.0
+        if noise > 0.0:
+            u1 = uniform(seed, key, tick, r, CH_SENSOR + j)
+            u2 = uniform(seed, key, tick, r, CH_SENSOR_GAUSS + j)
+        return np.float32(khepera_unit(raw[b, r, j] - params[P_RADIUS], params[P_IR], noise, u1, u2))
+    s = unit_reading(raw[b, r, j], np.float32(params[P_RADIUS]), np.float32(params[P_IR]))
+    if noise > 0.0:
+        s = np.float32(s + np.float32(noise * (2.0 * uniform(seed, key, tick, r, CH_SENSOR + j) - 1.0)))
+    return s
+
+
+@njit(cache=True, error_model="numpy", inline="always")
 def encode_episode(b, tick, raw, obs, rflag, params, seed, key):
     """Turn ray distances into inputs: (d - 6.5)/10.16 in float32, noise, capped at 1, floored to 0 at <= 0.25."""
-    f_radius = np.float32(params[P_RADIUS])
-    f_ir = np.float32(params[P_IR])
     f_floor = np.float32(params[P_FLOOR])
     f_ceil = np.float32(params[P_CEIL])
     noise = params[P_SNOISE] / 100.0
     for r in range(raw.shape[1]):
         for j in range(6):
-            s = unit_reading(raw[b, r, j], f_radius, f_ir)
-            if noise > 0.0:
-                s = np.float32(s + np.float32(noise * (2.0 * uniform(seed, key, tick, r, CH_SENSOR + j) - 1.0)))
-            obs[b, r, j] = input_value(s, f_floor, f_ceil)
+            obs[b, r, j] = input_value(sensed_reading(b, r, j, tick, raw, params, noise, seed, key), f_floor, f_ceil)
         obs[b, r, 6] = np.float32(rflag[b, r, F_SIGNAL])
 
 
@@ -172,15 +210,25 @@ def decide_robot(b, r, action, tick, pose, raw, params, seed, key):
     step = float(np.float32(np.float32(params[P_DT]) * np.float32(turn)))
     response = REFLEX_CLEAR
     if action == FORWARD and params[P_REFLEX] > 0.5:
-        f_radius = np.float32(params[P_RADIUS])
-        f_ir = np.float32(params[P_IR])
-        response = reflex_response(unit_reading(raw[b, r, 0], f_radius, f_ir),
-                                   unit_reading(raw[b, r, 1], f_radius, f_ir),
-                                   unit_reading(raw[b, r, 2], f_radius, f_ir),
-                                   unit_reading(raw[b, r, 3], f_radius, f_ir),
-                                   unit_reading(raw[b, r, 4], f_radius, f_ir),
-                                   unit_reading(raw[b, r, 5], f_radius, f_ir),
-                                   np.float32(params[P_FLOOR]))
+        if params[P_RNOISE] > 0.5:  # what the network saw this tick, before cap and floor, as on a real robot
+            rn = params[P_SNOISE] / 100.0
+            response = reflex_response(sensed_reading(b, r, 0, tick, raw, params, rn, seed, key),
+                                       sensed_reading(b, r, 1, tick, raw, params, rn, seed, key),
+                                       sensed_reading(b, r, 2, tick, raw, params, rn, seed, key),
+                                       sensed_reading(b, r, 3, tick, raw, params, rn, seed, key),
+                                       sensed_reading(b, r, 4, tick, raw, params, rn, seed, key),
+                                       sensed_reading(b, r, 5, tick, raw, params, rn, seed, key),
+                                       np.float32(params[P_FLOOR]))
+        else:  # the original's simulated reflex: the noise-free rays
+            f_radius = np.float32(params[P_RADIUS])
+            f_ir = np.float32(params[P_IR])
+            response = reflex_response(unit_reading(raw[b, r, 0], f_radius, f_ir),
+                                       unit_reading(raw[b, r, 1], f_radius, f_ir),
+                                       unit_reading(raw[b, r, 2], f_radius, f_ir),
+                                       unit_reading(raw[b, r, 3], f_radius, f_ir),
+                                       unit_reading(raw[b, r, 4], f_radius, f_ir),
+                                       unit_reading(raw[b, r, 5], f_radius, f_ir),
+                                       np.float32(params[P_FLOOR]))
     direction, velocity = steer(action, response, pose[b, r, V], speed, params[P_REFLEX] > 1.5)
     pose[b, r, V] = velocity
     if direction > 0:

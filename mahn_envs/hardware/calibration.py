@@ -24,16 +24,18 @@ from typing import Any
 
 import numpy as np
 
-RAW_MAX = 4095  # 12-bit converter
+from ..khepera import IR_CALIBRATION_A, IR_CALIBRATION_B, IR_CALIBRATION_C, IR_NOISE_GAP_M, IR_NOISE_SIGMA, IR_RAW_MAX
+
+RAW_MAX = IR_RAW_MAX  # 12-bit converter
 
 
 @dataclass(frozen=True)
 class LogCalibration:
     """``unit = a - (log10(raw) - b) / c`` clipped to [0, 1]; raw below 1 counts as 1 (nothing reflected)."""
 
-    a: float = 1.43
-    b: float = 0.51
-    c: float = 2.25
+    a: float = IR_CALIBRATION_A
+    b: float = IR_CALIBRATION_B
+    c: float = IR_CALIBRATION_C
     name: str = "paper"
 
     def to_unit(self, raw: Any) -> np.ndarray:
@@ -126,11 +128,10 @@ def make_calibration(spec: Any = "paper") -> Any:
     raise ValueError(f"calibration must be a name, an object with to_unit(), or a function; got {spec!r}")
 
 
-# Relative noise (Gaussian sigma / value) of a real Khepera III IR sensor against the gap in metres, from
-# K-Team's calibration as used by the Webots model (docs/original-system.md section 12).  Used by the emulator.
-NOISE_GAP_M = np.array([0.0, 0.0135, 0.018, 0.0225, 0.027, 0.0405, 0.0585, 0.0675, 0.0855, 0.1035, 0.153,
-                        0.252, 0.4455])
-NOISE_SIGMA = np.array([0.0015, 0.10, 0.19, 0.22, 0.23, 0.27, 0.21, 0.15, 0.12, 0.22, 0.52, 0.84, 1.0])
+# Relative noise (Gaussian sigma / value) of a real Khepera III IR sensor against the gap in metres
+# (mahn_envs.khepera: K-Team's calibration as used by the Webots model).  Used by the emulator.
+NOISE_GAP_M = IR_NOISE_GAP_M
+NOISE_SIGMA = IR_NOISE_SIGMA
 
 
 def relative_noise(gap_cm: Any) -> np.ndarray:

@@ -111,7 +111,8 @@ class PatrolReturnEnv(ParallelEnv):
                  heading_noise: float = 0.0, start_jitter_xy: float = 0.0, start_jitter_heading: float = 0.0,
                  max_cycles: int = ORIGINAL_MAX_TICKS, signal_tick: int = ORIGINAL_SIGNAL_TICK,
                  auto_signal: bool = True, reflex: bool = True, reflex_arc: bool = False,
-                 input_ceiling: float = 1.0, render_mode: str | None = None,
+                 input_ceiling: float = 1.0, reflex_reads_noise: bool = False, sensor_model: str = "uniform",
+                 render_mode: str | None = None,
                  model: KheperaModel = DEFAULT_MODEL) -> None:
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode must be one of {self.metadata['render_modes']} or None, "
@@ -122,7 +123,8 @@ class PatrolReturnEnv(ParallelEnv):
                                  effector_noise=effector_noise, heading_noise=heading_noise,
                                  start_jitter_xy=start_jitter_xy, start_jitter_heading=start_jitter_heading,
                                  robots_see_each_other=robots_see_each_other, reflex=reflex,
-                                 reflex_arc=reflex_arc, auto_signal=auto_signal, input_ceiling=input_ceiling)
+                                 reflex_arc=reflex_arc, auto_signal=auto_signal, input_ceiling=input_ceiling,
+                                 reflex_reads_noise=reflex_reads_noise, sensor_model=sensor_model)
         self.model = model
         self.engine_name = engine
         self.engine = make_engine(engine, self.world, self.params, model, robots_collide=robots_collide)

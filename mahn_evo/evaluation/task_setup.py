@@ -12,11 +12,17 @@ from mahn_envs.core import TaskParams
 
 #: Noise of the generalisation test (sensor noise, stochastic turning and locomotion, small start perturbations).
 #: Levels are percentages / cm / rad as documented in TaskParams.
-NOISE_PRESETS: dict[str, dict[str, float]] = {
+#: "robot": the generalisation test's motion noise with a real Khepera III's IR sensors as the emulator models them
+#: (TaskParams.sensor_model "khepera" at a real sensor's noise) and the reflex reading them, as a robot's reflex
+#: does (TaskParams.reflex_reads_noise; the generalisation test's reflex reads the noise-free rays, as the
+#: original's): docs/results/emulator_check/.
+NOISE_PRESETS: dict[str, dict[str, float | bool | str]] = {
     "none": {},
     "generalization": {"sensor_noise": 5.0, "effector_noise": 10.0, "heading_noise": 0.005,
                        "start_jitter_xy": 2.0, "start_jitter_heading": 0.1},
 }
+NOISE_PRESETS["robot"] = {**NOISE_PRESETS["generalization"], "sensor_noise": 100.0, "sensor_model": "khepera",
+                          "reflex_reads_noise": True}
 
 
 def task_env(map: str, params: TaskParams, engine: str = "kinematic", render_mode: str | None = None):

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from mahn_envs.core import BatchSim, TaskParams, encode_inputs
+from mahn_envs.core.task import P_CEIL
 from mahn_envs.hardware import Sensing
 from mahn_evo.cli import build_parser, experiment_plan, main
 from mahn_evo.deploy import _champion_sensing
@@ -53,7 +54,7 @@ def test_the_core_encodes_noisy_open_rays_as_open_under_the_ceiling():
 
     assert near_open(1.0) > 100
     assert near_open(0.95) == 0
-    assert TaskParams().vector()[-1] == 1.0  # the ceiling's slot holds the original's encoding by default
+    assert TaskParams().vector()[P_CEIL] == 1.0  # the ceiling's slot holds the original's encoding by default
 
 
 @pytest.fixture(scope="module")

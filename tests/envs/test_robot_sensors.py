@@ -1,0 +1,123 @@
+"""Sensors as a real robot has them, beyond the original (TaskParams.sensor_model, TaskParams.reflex_reads_noise).
+
+"khepera" turns each ray into a 12-bit count by the paper's calibration, with a real Khepera III's Gaussian relative
+noise, rounded and calibrated back, as the emulator answers `N`; with reflex_reads_noise the collision-avoidance
+reflex reads those noisy values, as a robot's reflex reads its sensors, where the original's simulated reflex
+reads the noise-free rays.  The defaults are the original's and leave every result bit for bit as it was (the
+identity tests); these tests check that the new model is the emulator's and that the reflex really reads the noise.
+"""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy import stats
+
+from mahn_envs.core import BatchSim, TaskParams
+from mahn_envs.core.task import P_RNOISE, P_SMODEL, khepera_unit
+from mahn_envs.hardware.calibration import PAPER
+from mahn_envs.hardware.clock import VirtualClock
+from mahn_envs.hardware.emulated_world import EmulatedWorld
+from mahn_envs.hardware.protocol import FRONT_SENSORS
+from mahn_envs.patrol_return_v0 import parallel_env
+from mahn_evo.evaluation.task_setup import NOISE_PRESETS, task_params
+from mahn_evo.training.config import EvolutionConfig
+
+FORWARD = 1
+
+
+def test_the_defaults_are_the_originals_sensors_and_reflex():
+    p = TaskParams()
+    assert p.sensor_model == "uniform" and p.reflex_reads_noise is False
+    v = p.vector()
+    assert v[P_SMODEL] == 0.0 and v[P_RNOISE] == 0.0
+
+
+@pytest.mark.parametrize("field, bad, error", [("sensor_model", "webots", ValueError),
+                                               ("reflex_reads_noise", "yes", TypeError)])
+def test_bad_settings_are_refused_naming_the_field(field, bad, error):
+    with pytest.raises(error, match=field):
+        TaskParams(**{field: bad})
+
+
+def test_noise_free_khepera_readings_are_the_emulators_counts_calibrated_back():
+    """Without noise the model is deterministic: the emulator's count for each ray (rounded to an integer),
+    through the paper's calibration, as the hardware env reads it."""
+    params = TaskParams(sensor_model="khepera")
+    sim = BatchSim("plus", 1, params)
+    obs = sim.reset(seed=0)
+    world = EmulatedWorld("plus", noise=0.0, clock=VirtualClock())
+    for k in range(3):
+        counts = np.asarray(world.proximity(k))[list(FRONT_SENSORS)]
+        unit = PAPER.to_unit(counts)
+        expected = np.where(unit <= 0.25, 0.0, np.minimum(unit, 1.0)).astype(np.float32)
+        np.testing.assert_array_equal(obs[0, k, :6], expected)
+    # the same rays through the uniform model read differently (rounding counts moves values near the range edge)
+    plain = BatchSim("plus", 1, TaskParams()).reset(seed=0)
+    assert not np.array_equal(plain[0, :, :6], obs[0, :, :6])
+
+
+def test_noisy_khepera_readings_follow_the_emulators_noise():
+    """At a fixed gap the core's readings (one per episode key) and the emulator's (one per N) come from the same
+    distribution: a real sensor's relative Gaussian noise on the count."""
+    gap = 4.0  # cm: sigma 0.27 of the count, the noisiest part of the table
+    keys = 4000
+    u1 = np.array([(k * 0.6180339887) % 1.0 for k in range(keys)])  # any uniforms: the model is a pure function
+    u2 = np.array([(k * 0.4142135623 + 0.5) % 1.0 for k in range(keys)])
+    core = np.array([khepera_unit(gap, 10.16, 1.0, a, b) for a, b in zip(u1, u2)])
+    rng = np.random.default_rng(0)
+    counts = PAPER.to_raw(gap / 10.16) * (1.0 + 0.27 * rng.standard_normal(keys))
+    emulator = PAPER.to_unit(np.clip(np.rint(counts), 0, 4095))
+    assert stats.ks_2samp(core, emulator).pvalue > 0.01
+    assert 0.04 < core.std() < 0.07  # about 0.193 x 0.27 in unit terms: twice the +-5 % uniform noise's sd
+    # the core draws its Gaussians from the episode's counter-based stream: the same key, the same readings
+    sim = BatchSim("plus", 2, TaskParams(sensor_model="khepera", sensor_noise=100.0))
+    a = sim.reset(seed=3, episode_keys=[7, 7]).copy()
+    assert np.array_equal(a[0], a[1])
+    assert not np.array_equal(a[0], sim.reset(seed=3, episode_keys=[8, 8])[0])
+
+
+def _headings_at_a_wall(**task) -> np.ndarray:
+    """Headings of robots that always ask to go forward, once they stand at the end of their arm."""
+    params = TaskParams(max_cycles=700, signal_tick=690, **task)
+    sim = BatchSim("plus", 8, params)
+    sim.reset(seed=2, episode_keys=np.arange(8))
+    forward = np.full((8, 3), FORWARD)
+    heads = []
+    while not sim.done:
+        sim.step(forward)
+        if sim.tick > 600:
+            heads.append(sim.pose[:, :, 2].copy())
+    return np.array(heads)
+
+
+def test_the_reflex_reads_the_sensor_noise_only_when_told():
+    """Forward into a dead end: the original's reflex reads the noise-free rays, so a robot that reached the wall
+    stands still for good whatever the noise on its inputs; a reflex that reads the noisy values sometimes sees a
+    wall close on one side (the side walls read about 0.85, the noise here reaches 0.25) and turns away."""
+    for noisy in (dict(sensor_noise=80.0), dict(sensor_noise=400.0, sensor_model="khepera")):
+        still = _headings_at_a_wall(**noisy)
+        assert np.all(still == still[0])  # no heading noise: nothing turns a standing robot
+        turned = _headings_at_a_wall(reflex_reads_noise=True, **noisy)
+        assert np.any(turned != turned[0])
+    # without sensor noise the switch changes nothing
+    assert np.array_equal(_headings_at_a_wall(sensor_model="khepera"),
+                          _headings_at_a_wall(sensor_model="khepera", reflex_reads_noise=True))
+
+
+def test_the_robot_noise_preset_names_itself_and_without_noise_is_the_original_world():
+    assert NOISE_PRESETS["robot"]["sensor_model"] == "khepera"
+    robot = task_params("robot")
+    assert robot.reflex_reads_noise and robot.sensor_noise == 100.0
+    assert EvolutionConfig().with_noise("robot").noise_preset == "robot"
+    assert EvolutionConfig().with_noise("generalization").noise_preset == "generalization"
+    assert robot.without_noise() == TaskParams()
+    sensors = robot.only_noise("sensor_noise")
+    assert (sensors.sensor_model, sensors.reflex_reads_noise, sensors.effector_noise) == ("khepera", True, 0.0)
+    assert robot.only_noise("heading_noise").sensor_model == "uniform"
+
+
+def test_the_pettingzoo_env_takes_the_robot_sensors():
+    env = parallel_env(map="plus", sensor_noise=100.0, sensor_model="khepera", reflex_reads_noise=True)
+    obs, _ = env.reset(seed=1)
+    assert env.unwrapped.params.sensor_model == "khepera"
+    assert all(o.dtype == np.float32 and o.shape == (7,) for o in obs.values())
