@@ -88,7 +88,7 @@ def decide_tick(b, actions, state, task):
     tick = est[b, E_TICK] + 1
     est[b, E_TICK] = tick
     for r in range(pose.shape[1]):
-        decide_robot(b, r, actions[b, r], tick, pose, state[1], task[0], task[1], task[2][b])
+        decide_robot(b, r, actions[b, r], tick, pose, state[1], state[2], task[0], task[1], task[2][b])
     return tick
 
 
@@ -360,7 +360,7 @@ def run_controllers(state, arena, task, work, nets, brains, result, traj, record
                 else:
                     action = remembered_action(b, r, obs, rflag[b, r, F_SIGNAL], wt_ih, wt_hh, wt_ho, b_h, b_o,
                                                hid, out, brain, tmp_h, prev_0, memo_obs, memo, by_net)
-                decide_robot(b, r, action, tick, pose, raw, params, seed, key)
+                decide_robot(b, r, action, tick, pose, raw, obs, params, seed, key)
                 if record:
                     traj[b, tick, r, 3] = action
             # `move_tick`, `score_tick`, `sense_tick` of the shared tick, on the episode's memo rows

@@ -109,8 +109,8 @@ def _decide(action: int, raw: np.ndarray, velocity: float, reflex: bool,
     params = TaskParams(reflex=reflex, reflex_arc=arc).vector(DEFAULT_MODEL)
     pose = np.zeros((1, 1, 4))
     pose[0, 0, 3] = velocity
-    corrected = T.decide_robot(0, 0, action, 1, pose, raw.reshape(1, 1, 6).astype(np.float64), params, 0,
-                               np.uint64(0))
+    corrected = T.decide_robot(0, 0, action, 1, pose, raw.reshape(1, 1, 6).astype(np.float64),
+                               np.ones((1, 1, 7), np.float32), params, 0, np.uint64(0))
     return pose[0, 0, 2], pose[0, 0, 3], corrected
 
 

@@ -10,10 +10,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from numba import njit
 from scipy import stats
 
 from mahn_envs.core import BatchSim, TaskParams
-from mahn_envs.core.task import P_RNOISE, P_SMODEL, khepera_unit
+from mahn_envs.core.task import P_RNOISE, P_SMODEL, encode_episode, khepera_unit
 from mahn_envs.hardware.calibration import PAPER
 from mahn_envs.hardware.clock import VirtualClock
 from mahn_envs.hardware.emulated_world import EmulatedWorld
@@ -60,15 +61,29 @@ def test_noisy_khepera_readings_follow_the_emulators_noise():
     """At a fixed gap the core's readings (one per episode key) and the emulator's (one per N) come from the same
     distribution: a real sensor's relative Gaussian noise on the count."""
     gap = 4.0  # cm: sigma 0.27 of the count, the noisiest part of the table
-    keys = 4000
-    u1 = np.array([(k * 0.6180339887) % 1.0 for k in range(keys)])  # any uniforms: the model is a pure function
-    u2 = np.array([(k * 0.4142135623 + 0.5) % 1.0 for k in range(keys)])
-    core = np.array([khepera_unit(gap, 10.16, 1.0, a, b) for a, b in zip(u1, u2)])
-    rng = np.random.default_rng(0)
-    counts = PAPER.to_raw(gap / 10.16) * (1.0 + 0.27 * rng.standard_normal(keys))
+    n = 4000
+    core = np.array([khepera_unit(gap, 10.16, 1.0, g) for g in np.random.default_rng(1).standard_normal(n)])
+    counts = PAPER.to_raw(gap / 10.16) * (1.0 + 0.27 * np.random.default_rng(0).standard_normal(n))
     emulator = PAPER.to_unit(np.clip(np.rint(counts), 0, 4095))
     assert stats.ks_2samp(core, emulator).pvalue > 0.01
     assert 0.04 < core.std() < 0.07  # about 0.193 x 0.27 in unit terms: twice the +-5 % uniform noise's sd
+    # the core's Gaussians (Box-Muller pairs from the counter-based stream) are standard normal: a sensor at that
+    # gap read over many episode keys spreads as the emulator's readings do
+    params = TaskParams(sensor_model="khepera", sensor_noise=100.0).vector()
+    raw = np.full((n, 1, 6), 6.5 + gap)  # every sensor of one robot `gap` cm from a wall, in n episodes (keys)
+    read = _encoded(raw, params, 5).astype(np.float64)
+    for j in range(6):
+        assert stats.ks_2samp(read[:, 0, j], emulator).pvalue > 0.001
+
+
+@njit
+def _encoded(raw, params, seed):
+    """The core's inputs for ray distances raw (B, R, 6), episode b with key b, tick 1."""
+    obs = np.zeros((raw.shape[0], raw.shape[1], 7), dtype=np.float32)
+    rflag = np.zeros((raw.shape[0], raw.shape[1], 3), dtype=np.uint8)
+    for b in range(raw.shape[0]):
+        encode_episode(b, 1, raw, obs, rflag, params, seed, np.uint64(b))
+    return obs
     # the core draws its Gaussians from the episode's counter-based stream: the same key, the same readings
     sim = BatchSim("plus", 2, TaskParams(sensor_model="khepera", sensor_noise=100.0))
     a = sim.reset(seed=3, episode_keys=[7, 7]).copy()

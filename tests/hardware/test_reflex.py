@@ -15,7 +15,7 @@ def _sim_motion(action: int, raw: np.ndarray, moving: bool, reflex: bool, arc: b
     pose = np.zeros((1, 1, 4))
     pose[0, 0, 3] = DEFAULT_MODEL.speed if moving else 0.0
     raws = raw.reshape(1, 1, 6).astype(np.float64)
-    T.decide_robot(0, 0, action, 1, pose, raws, params, 0, np.uint64(0))
+    T.decide_robot(0, 0, action, 1, pose, raws, np.ones((1, 1, 7), np.float32), params, 0, np.uint64(0))
     dh, v = pose[0, 0, 2], pose[0, 0, 3]
     if dh > 0:
         return Motion.ARC_LEFT if v > 0 else Motion.LEFT
