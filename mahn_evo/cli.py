@@ -262,6 +262,9 @@ def _final_validation_parser(sub) -> None:
                    help="where the sequential stage plays: pymunk (default: the transfer test's engine, robots "
                         "bump into each other) or batch (the compiled core's protocol, as training plays it: about "
                         "50 times faster, so --sequential can cover every candidate)")
+    p.add_argument("--noise", choices=sorted(set(NOISE_PRESETS) - {"none"}),
+                   help="noise preset of every validation episode (default: the run's own, generalization for runs "
+                        "evolved without noise)")
 
 
 def cmd_final_validation(args) -> int:
@@ -270,7 +273,8 @@ def cmd_final_validation(args) -> int:
     for run in args.run_dirs:
         record = validate_final_population(run, episodes=args.episodes, sequential_teams=args.sequential,
                                            sequential_episodes=args.sequential_episodes,
-                                           family_episodes=args.family_episodes, engine=args.engine)
+                                           family_episodes=args.family_episodes, engine=args.engine,
+                                           noise=args.noise)
         chosen = record["chosen"]
         if chosen is None:
             print(f"{run}: no team of generation {record['generation']} solves the noise-free task; nothing archived")

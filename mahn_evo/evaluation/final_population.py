@@ -9,8 +9,9 @@ final population (every reading, with `--symmetry best`) on its own validation e
 noise-free solution among them is the standard post-evaluation of evolutionary robotics: cheap (a few seconds
 per run) and blind to the report's test episodes.
 
-The validation episodes use the generalisation noise with the run's seed and keys from VALIDATION_KEY on: never a
-training episode's key (generation * K + e) nor the generalisation test's (0, 1, ... with seed 0).  The chosen
+The validation episodes use the run's own noise preset (the generalisation noise for runs evolved without noise or
+with it; the robot noise for runs evolved with `--noise robot`), with the run's seed and keys from VALIDATION_KEY on:
+never a training episode's key (generation * K + e) nor the generalisation test's (0, 1, ... with seed 0).  The chosen
 team must solve the noise-free task on the run's map (it is archived as a solution); among those, the most
 episodes solved, then the best mean fitness, then the lowest population index and reading wins.
 """
@@ -36,7 +37,7 @@ from ..training.config import EvolutionConfig
 from .eval_champion import champion_policy
 from .generalize import keyed_episodes
 from .protocols import sequential, sequential_episode
-from .task_setup import task_params
+from .task_setup import NOISE_PRESETS, task_params
 
 #: the first validation episode's key (training keys are generation * K + e, far below)
 VALIDATION_KEY = 1 << 40
@@ -59,6 +60,13 @@ ENGINES = ("pymunk", "batch")
 KIND = "final_validation"
 
 
+def validation_noise(config: EvolutionConfig) -> str:
+    """The noise preset a run's validation uses: its own, when it was evolved with a named one other than none (a
+    team hardened for robots is chosen under the noise it was hardened for), else the generalisation test's."""
+    own = config.noise_preset
+    return own if own not in (None, "none") else "generalization"
+
+
 def final_population(run_dir: str | Path) -> tuple[EvolutionConfig, Population]:
     """A run folder's configuration and the population of its last checkpoint (the generation it would play
     next: the last generation's elites and their offspring)."""
@@ -76,13 +84,14 @@ def final_population(run_dir: str | Path) -> tuple[EvolutionConfig, Population]:
 
 def validate_final_population(run_dir: str | Path, episodes: int = 25, sequential_teams: int = 0,
                               sequential_episodes: int = 10, family_episodes: int = 0, engine: str = "pymunk",
-                              write: bool = True) -> dict[str, Any]:
+                              write: bool = True, noise: str | None = None) -> dict[str, Any]:
     """Score every team of the run's final population (every reading with symmetry "best") on `episodes` noisy
     validation episodes; with `sequential_teams` T > 0, play the T best noise-free solutions of that ranking
     through `sequential_episodes` noisy episodes of the sequential protocol on the run's map and choose by those;
     with `family_episodes` F > 0 (a run trained on plus variants), each of them also plays F such episodes on
     the run's own variants (keys from FAMILY_KEY, never trained on) and the choice counts both; `engine` says where
-    those episodes run (ENGINES).  Why: a team's
+    those episodes run (ENGINES); `noise` is their noise preset (default `validation_noise` of the run).  Why: a
+    team's
     successes on its training family predict the test map, where its successes on the map itself do not
     (docs/results/turn_probes/: picks with 8-10 of 10 on plus and 0-1 on the test map all score 0-1 on the family).
     With `write`, archive the chosen team as archive/solution_final_gGGGGG_iIIII.json (replacing the pick of an
@@ -102,6 +111,10 @@ def validate_final_population(run_dir: str | Path, episodes: int = 25, sequentia
                          "sequential_teams (--sequential T) too")
     run = Path(run_dir)
     config, population = final_population(run)
+    noise = validation_noise(config) if noise is None else noise
+    if noise not in NOISE_PRESETS or noise == "none":
+        raise ValueError(f"noise must be a noise preset other than 'none' ({sorted(set(NOISE_PRESETS) - {'none'})}), "
+                         f"got {noise!r}")
     ev = config.evaluation
     if family_episodes and not ev.on_variants:
         raise ValueError(f"run {str(run)!r} trained on its map alone (no --map-spread or --map-branch): it has no "
@@ -111,7 +124,7 @@ def validate_final_population(run_dir: str | Path, episodes: int = 25, sequentia
     readings = READINGS if config.symmetry == "best" else ("none",)
     team = config.task.team_settings()
     clean = config.task.without_noise()
-    noisy = task_params("generalization").with_team_settings(team)
+    noisy = task_params(noise).with_team_settings(team)
     keys = [VALIDATION_KEY + i for i in range(episodes)]
     rows: list[dict[str, Any]] = []
     batches = {reading: team_reading(controllers, reading) for reading in readings}
@@ -132,7 +145,7 @@ def validate_final_population(run_dir: str | Path, episodes: int = 25, sequentia
                         seed=config.seed, map=config.map, **team)
 
     record: dict[str, Any] = {"generation": gen, "episodes": episodes, "seed": config.seed,
-                              "first_key": VALIDATION_KEY, "noise": "generalization", "teams": len(rows),
+                              "first_key": VALIDATION_KEY, "noise": noise, "teams": len(rows),
                               "chosen": None, "top": rows[:10]}
     candidates = [r for r in rows if r["noise_free_solved"]]
     if sequential_teams:
@@ -141,10 +154,10 @@ def validate_final_population(run_dir: str | Path, episodes: int = 25, sequentia
                   for i in range(family_episodes)]
         if engine == "batch":
             _batch_sequential_stage(candidates, [champion(r).controllers for r in candidates], config, worlds,
-                                    sequential_episodes)
+                                    sequential_episodes, noise)
         for row in candidates if engine == "pymunk" else ():
             champ = champion(row)
-            policy, params = champion_policy(champ), champ.task(task_params("generalization"))
+            policy, params = champion_policy(champ), champ.task(task_params(noise))
             result = sequential(policy, map=config.map, params=params, episodes=sequential_episodes,
                                 seed=SEQUENTIAL_SEED)
             row["sequential_successes"] = int(sum(result["solved"]))
@@ -164,7 +177,7 @@ def validate_final_population(run_dir: str | Path, episodes: int = 25, sequentia
         in_core = engine == "batch"
         record["sequential"] = {"teams": sequential_teams, "episodes": sequential_episodes, "engine": engine,
                                 **({"first_key": BATCH_SEQUENTIAL_KEY} if in_core else {"first_seed": SEQUENTIAL_SEED}),
-                                "map": config.map, "noise": "generalization", "ranking": candidates}
+                                "map": config.map, "noise": noise, "ranking": candidates}
         if family_episodes:
             record["sequential"]["family"] = {
                 "episodes": family_episodes, "first_key": FAMILY_KEY,
@@ -187,13 +200,13 @@ def validate_final_population(run_dir: str | Path, episodes: int = 25, sequentia
 
 
 def _batch_sequential_stage(rows: list[dict[str, Any]], teams: list[TeamControllers], config: EvolutionConfig,
-                            worlds: list[World], episodes: int) -> None:
+                            worlds: list[World], episodes: int, noise: str = "generalization") -> None:
     """The sequential stage in the compiled core: every candidate plays `episodes` noisy protocol episodes on the
     run's map (keys BATCH_SEQUENTIAL_KEY + e) and one on each family world (keys BATCH_FAMILY_KEY + i), all
     candidates of an episode in one batch; writes the counts into `rows` as the pymunk stage does."""
     if not rows:
         return
-    task = sequential_task(task_params("generalization").with_team_settings(config.task), SequentialSettings())
+    task = sequential_task(task_params(noise).with_team_settings(config.task), SequentialSettings())
     ctrl = TeamControllers.stack(teams)
     n, stages = len(rows), 3 * ctrl.n_robots
     plays = [(load_map(config.map), BATCH_SEQUENTIAL_KEY + e, "sequential") for e in range(episodes)]

@@ -83,6 +83,30 @@ def test_the_best_noise_free_solution_of_the_population_is_archived(tmp_path):
     assert validate_final_population(run, episodes=3, write=False) == record
 
 
+def test_a_run_evolved_for_robots_is_validated_under_its_own_noise(tmp_path, capsys):
+    """A run evolved with --noise robot is chosen under the robot noise (Khepera sensors, the reflex reading them);
+    runs without a noise of their own keep the generalisation test's; --noise overrides both."""
+    plain = _tiny_run(tmp_path)
+    _plant(plain, CHAMPION, 7)
+    robot = tmp_path / "robot"
+    assert main(["train", "--preset", "best-restarts", "--generations", "1", "--pop", "12", "--seed", "5", "--quiet",
+                 "--noise", "robot", "--out", str(robot)]) == 0
+    _plant(robot, CHAMPION, 7)
+    first = validate_final_population(plain, episodes=8, write=False)
+    assert first["noise"] == "generalization"
+    own = validate_final_population(robot, episodes=8, write=False)
+    assert own["noise"] == "robot"
+    # the same team, other episodes: the robot's sensors and reflex give it other scores
+    row = {r["index"]: r for r in own["top"] if r["reading"] == "none"}[7]
+    plain_row = {r["index"]: r for r in first["top"] if r["reading"] == "none"}[7]
+    assert (row["solved_fraction"], row["mean_fitness"]) != (plain_row["solved_fraction"], plain_row["mean_fitness"])
+    assert validate_final_population(robot, episodes=8, write=False, noise="generalization")["top"] == first["top"]
+    assert main(["final-validation", str(plain), "--episodes", "2", "--noise", "robot"]) == 0
+    assert json.loads((plain / "final_validation.json").read_text())["noise"] == "robot"
+    with pytest.raises(ValueError, match="noise preset other than 'none'"):
+        validate_final_population(plain, episodes=2, noise="none")
+
+
 def test_bad_input_is_a_clear_error(tmp_path):
     with pytest.raises(ValueError, match="no checkpoint.json"):
         validate_final_population(tmp_path)
