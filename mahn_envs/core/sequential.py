@@ -18,7 +18,7 @@ lifetime-hardened teams, 10 episodes each: 2/2, 1/1, 9/9, 1/1); whether robots s
 team: 2 of 10 seeing, 8 of 10 blind).
 
 Numba caches the kernel keyed on this file: after changing a rule in task.py or controller.py, change this file
-too (as kernels.py says for its loops; even a comment).
+too (as kernels.py says for its loops; even a comment, as this line was for the Khepera sensor model).
 """
 from __future__ import annotations
 

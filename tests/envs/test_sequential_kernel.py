@@ -58,6 +58,16 @@ def test_kernel_plays_the_env_protocol_record_for_record(path):
     assert play_sequential("plus", champ.controllers, noisy, seed=1).success[0] == (path == ROBUST)
 
 
+def test_under_the_robot_noise_the_kernel_still_plays_the_env_protocol():
+    """The Khepera sensors and a reflex reading them (`--noise robot`), in the kernel and through the env."""
+    champ = Champion.load(ROBUST)
+    robot = champ.task(task_params("robot"))
+    res, records, stages = _python_records(champ.controllers, robot, 3)
+    out = play_sequential("plus", champ.controllers, robot, seed=3)
+    assert np.array_equal(out.records[0], records) and np.array_equal(out.stages[0], stages)
+    assert out.ticks[0] == res.ticks and out.success[0] == res.success
+
+
 def test_a_batch_of_teams_is_each_team_alone_and_other_sizes_and_maps_agree():
     """Team b in episode b equals the team played alone; a network size without the packed fast path (5
     hidden units) and the test map give the env protocol's records too (short settings: random teams)."""
