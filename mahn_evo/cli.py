@@ -291,7 +291,7 @@ def cmd_final_validation(args) -> int:
 def _experiment_parser(sub) -> None:
     from .evaluation.final_population import ENGINES
     from .experiment.backends import BACKENDS
-    from .experiment.plan import GENERAL_FROM, GENERAL_RANKS, ExperimentPlan
+    from .experiment.plan import GENERAL_FROM, GENERAL_RANKS, TRANSFER_NOISES, ExperimentPlan
 
     d = ExperimentPlan()
     p = sub.add_parser("experiment", help="the paper's table: seeded runs per mode, generalisation, transfer, figures")
@@ -341,6 +341,9 @@ def _experiment_parser(sub) -> None:
                         "noisy training episodes on the map) or protocol (with --general-from final_validation and "
                         "--final-sequential: the pick's successes in the final validation's noisy sequential "
                         f"episodes on the map and its plus variants; default {d.general_rank})")
+    p.add_argument("--transfer-noise", choices=TRANSFER_NOISES,
+                   help="noise of the transfer tests' noisy columns: generalization (the generalisation test's, "
+                        "default) or robot (a real Khepera III's IR sensors and a reflex that reads them)")
     p.add_argument("--max-cycles", type=int, default=d.max_cycles, help=argparse.SUPPRESS)
     p.add_argument("--signal-tick", type=int, default=d.signal_tick, help=argparse.SUPPRESS)
     p.add_argument("--config", type=Path, help="TOML or JSON file whose `neat` table overrides NEAT settings")
@@ -425,7 +428,8 @@ def _analysis_options(args) -> dict[str, Any]:
     return {"top": args.top, "general_episodes": args.general_episodes, "transfer_episodes": args.transfer_episodes,
             "final_validation": args.final_validation, "final_sequential": args.final_sequential,
             "final_family": args.final_family, "final_engine": args.final_engine,
-            "general_from": args.general_from, "general_rank": args.general_rank}
+            "general_from": args.general_from, "general_rank": args.general_rank,
+            "transfer_noise": args.transfer_noise}
 
 
 def cmd_experiment(args) -> int:

@@ -32,7 +32,7 @@ EVOLUTION_FIELDS = ("init", "evaluate_modules", "cppn_activation", "decision", "
 
 #: the report's options: they choose what is tested after the runs, so they may change in an experiment's folder
 REPORT_OPTIONS = ("top", "general_episodes", "transfer_episodes", "final_validation", "final_sequential",
-                  "final_family", "final_engine", "general_from", "general_rank")
+                  "final_family", "final_engine", "general_from", "general_rank", "transfer_noise")
 #: where each run's team for the generalisation ranking comes from: "archive" (its most general archived solution)
 #: or "final_validation" (the final validation's pick, when it made one)
 GENERAL_FROM = ("archive", "final_validation")
@@ -44,6 +44,8 @@ GENERAL_FROM = ("archive", "final_validation")
 #: while 4 of the 5 runs whose picks had 25 or more of their 30 validation successes pass the noisy protocol on both
 #: maps, and none of the 9 below
 GENERAL_RANKS = ("generalization", "protocol")
+#: the noise presets a report's transfer tests can use (mahn_evo.evaluation.task_setup.NOISE_PRESETS)
+TRANSFER_NOISES = ("generalization", "robot")
 
 
 @dataclass(frozen=True)
@@ -102,6 +104,9 @@ class ExperimentPlan:
     general_from: str = "archive"
     #: GENERAL_RANKS: how the runs' teams are ranked for the top ones
     general_rank: str = "generalization"
+    #: the noise preset of the transfer tests' noisy columns: "generalization" (the issue's test) or "robot" (a real
+    #: Khepera III's sensors and a reflex that reads them: docs/results/emulator_check/)
+    transfer_noise: str = "generalization"
     replays: int = 1  # most general solutions per mode filmed in each protocol and map (GIFs)
     reflex_arc: bool = False  # the arcing reflex (TaskParams.reflex_arc), beyond the paper
     reflex_arc_from: str = "start"  # or "robust_phase" (see EvolutionConfig.reflex_arc_from)
@@ -136,6 +141,8 @@ class ExperimentPlan:
         if self.general_from == "final_validation" and not self.final_validation:
             raise ValueError("general_from 'final_validation' transfers the final validation's picks: give "
                              "final_validation (--final-validation N) too")
+        if self.transfer_noise not in TRANSFER_NOISES:
+            raise ValueError(f"transfer_noise must be one of {TRANSFER_NOISES}, got {self.transfer_noise!r}")
         if self.general_rank not in GENERAL_RANKS:
             raise ValueError(f"general_rank must be one of {GENERAL_RANKS}, got {self.general_rank!r}")
         if self.general_rank == "protocol" and not (self.general_from == "final_validation" and self.final_sequential):

@@ -223,7 +223,11 @@ def markdown(results: dict[str, Any]) -> str:
               "`training`: all robots called at tick 690 (team fitness, solved). `sequential`: the real-world "
               "protocol in the pymunk engine (robots called home one at a time, sent back out); success = every "
               f"robot reaches its post, returns and goes back out. Noisy columns: {plan['transfer_episodes']} "
-              "episodes with the generalisation noise. Ties: the share of the team's decisions on the training "
+              + ("episodes with the generalisation noise. "
+                 if plan.get("transfer_noise", "generalization") == "generalization" else
+                 "episodes with the robot noise (`--transfer-noise robot`: the generalisation test's motion noise, a "
+                 "real Khepera III's IR sensors as the emulator models them, and a reflex that reads them). ")
+              + "Ties: the share of the team's decisions on the training "
               "map that are exact ties of the top two outputs / near-ties (< 0.001) / the number of decisions that "
               "input "
               "jitter of +-1e-4 flips; ties are harmless, flips are not (see `mahn-evo eval --margins`).", ""]

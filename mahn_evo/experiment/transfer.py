@@ -122,8 +122,9 @@ def _protocol_successes(chosen: dict[str, Any] | None, file: str) -> int:
 
 def transfer_tests(champ: Champion, plan: ExperimentPlan) -> dict[str, Any]:
     """Both protocols on both maps, exact (1 episode) and noisy (plan.transfer_episodes episodes), and the
-    team's decision margins on the training map (a team that decides by ties will not survive noise)."""
-    noisy = champ.task(task_params("generalization"))
+    team's decision margins on the training map (a team that decides by ties will not survive noise).  The noisy
+    episodes use plan.transfer_noise."""
+    noisy = champ.task(task_params(plan.transfer_noise))
     exact_task = champ.task()
     out: dict[str, Any] = {}
     for m in TRANSFER_MAPS:
