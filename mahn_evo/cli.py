@@ -13,7 +13,7 @@ from mahn_envs.core.controller import DECISIONS
 from mahn_envs.maps.variants import BRANCH_SIDES
 
 from .cppn import CPPN_ACTIVATIONS
-from .evaluation.task_setup import NOISE_PRESETS
+from .evaluation.task_setup import NOISE_PRESETS, TEST_NOISES
 from .hyperneat.substrate import MODES, SYMMETRIES
 from .hyperneat.team_evaluator import AGGREGATES, NOISE_DRAWS
 from .training.config import INITS, REFLEX_ARC_FROM, ROBUST_FROM, EvolutionConfig, load_config_file
@@ -262,7 +262,7 @@ def _final_validation_parser(sub) -> None:
                    help="where the sequential stage plays: pymunk (default: the transfer test's engine, robots "
                         "bump into each other) or batch (the compiled core's protocol, as training plays it: about "
                         "50 times faster, so --sequential can cover every candidate)")
-    p.add_argument("--noise", choices=sorted(set(NOISE_PRESETS) - {"none"}),
+    p.add_argument("--noise", choices=TEST_NOISES,
                    help="noise preset of every validation episode (default: the run's own, generalization for runs "
                         "evolved without noise)")
 

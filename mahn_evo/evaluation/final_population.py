@@ -37,7 +37,7 @@ from ..training.config import EvolutionConfig
 from .eval_champion import champion_policy
 from .generalize import keyed_episodes
 from .protocols import sequential, sequential_episode
-from .task_setup import NOISE_PRESETS, task_params
+from .task_setup import TEST_NOISES, task_params
 
 #: the first validation episode's key (training keys are generation * K + e, far below)
 VALIDATION_KEY = 1 << 40
@@ -112,9 +112,8 @@ def validate_final_population(run_dir: str | Path, episodes: int = 25, sequentia
     run = Path(run_dir)
     config, population = final_population(run)
     noise = validation_noise(config) if noise is None else noise
-    if noise not in NOISE_PRESETS or noise == "none":
-        raise ValueError(f"noise must be a noise preset other than 'none' ({sorted(set(NOISE_PRESETS) - {'none'})}), "
-                         f"got {noise!r}")
+    if noise not in TEST_NOISES:
+        raise ValueError(f"noise must be a noise preset other than 'none' {TEST_NOISES}, got {noise!r}")
     ev = config.evaluation
     if family_episodes and not ev.on_variants:
         raise ValueError(f"run {str(run)!r} trained on its map alone (no --map-spread or --map-branch): it has no "

@@ -23,6 +23,8 @@ NOISE_PRESETS: dict[str, dict[str, float | bool | str]] = {
 }
 NOISE_PRESETS["robot"] = {**NOISE_PRESETS["generalization"], "sensor_noise": 100.0, "sensor_model": "khepera",
                           "reflex_reads_noise": True}
+#: the presets a team can be tested under (final validation, the report's transfer tests): every one with noise
+TEST_NOISES = tuple(name for name in NOISE_PRESETS if name != "none")
 
 
 def task_env(map: str, params: TaskParams, engine: str = "kinematic", render_mode: str | None = None):

@@ -15,6 +15,7 @@ from typing import Any
 from mahn_envs.core.rng import check_seed
 
 from ..evaluation.final_population import ENGINES
+from ..evaluation.task_setup import TEST_NOISES
 from ..hyperneat.substrate import MODES
 from ..neat.settings import NeatSettings
 from ..storage.files import atomic_write_json, read_versioned_json, versioned
@@ -44,8 +45,8 @@ GENERAL_FROM = ("archive", "final_validation")
 #: while 4 of the 5 runs whose picks had 25 or more of their 30 validation successes pass the noisy protocol on both
 #: maps, and none of the 9 below
 GENERAL_RANKS = ("generalization", "protocol")
-#: the noise presets a report's transfer tests can use (mahn_evo.evaluation.task_setup.NOISE_PRESETS)
-TRANSFER_NOISES = ("generalization", "robot")
+#: the noise presets a report's transfer tests can use (every preset with noise)
+TRANSFER_NOISES = TEST_NOISES
 
 
 @dataclass(frozen=True)
