@@ -7,11 +7,15 @@ from __future__ import annotations
 
 import pettingzoo as _pz
 
-from . import patrol_return_v0
-from .core import BatchSim, TaskParams
-from .khepera import KheperaModel
-from .maps import World, load_map
-from .policies.team_controllers import TeamControllers
+from . import compile_cache as _compile_cache
+
+_compile_cache.register()  # before any compiled module is imported: kernels are cached on all their sources
+
+from . import patrol_return_v0  # noqa: E402
+from .core import BatchSim, TaskParams  # noqa: E402
+from .khepera import KheperaModel  # noqa: E402
+from .maps import World, load_map  # noqa: E402
+from .policies.team_controllers import TeamControllers  # noqa: E402
 
 ENV_ID = "mahn/patrol_return-v0"
 if ENV_ID not in _pz.parallel_registry:

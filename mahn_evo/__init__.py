@@ -5,3 +5,6 @@ evaluator), `training/` (configuration, presets, the generation loop, champions)
 scored beyond training), `experiment/` (the paper's experiment), `storage/` (the files users keep); `deploy.py`
 drives real robots, `plots.py` draws, `cli.py` is `mahn-evo`.  docs/architecture.md maps every module.
 """
+from mahn_envs import compile_cache as _compile_cache
+
+_compile_cache.register()  # before the compiled CPPN and substrate modules: cached on all their sources
