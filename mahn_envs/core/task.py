@@ -100,18 +100,48 @@ def ir_relative_noise(gap):
 
 
 @njit(cache=True, error_model="numpy", inline="always")
+def khepera_count(gap, ir_range):
+    """The noise-free 12-bit count (not yet rounded) of a Khepera III IR sensor `gap` cm from a wall, by the
+    paper's calibration."""
+    log_count = min(IR_CALIBRATION_B + (IR_CALIBRATION_A - gap / ir_range) * IR_CALIBRATION_C, _LOG10_RAW_MAX)
+    return math.exp(log_count * _LN10)
+
+
+@njit(cache=True, error_model="numpy")
+def unit_of_count(count):
+    """A rounded count calibrated back to the simulator's scale, clipped to [0, 1]."""
+    u = IR_CALIBRATION_A - (math.log(count) / _LN10 - IR_CALIBRATION_B) / IR_CALIBRATION_C
+    return min(max(u, 0.0), 1.0)
+
+
+#: unit_of_count of every count 0..IR_RAW_MAX (index 0 unused: a count is at least 1), made by the compiled function
+#: itself, so a lookup gives the bits the formula gives in the kernels, without a logarithm per ray
+UNIT_OF_COUNT = np.array([unit_of_count(float(max(k, 1))) for k in range(IR_RAW_MAX + 1)])
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def khepera_reading(count, sigma, noise, g):
+    """The noise-free `count` times 1 + noise x sigma x g (g a standard Gaussian draw, sigma the relative noise at
+    the ray's gap), rounded to a count in [1, IR_RAW_MAX] (below one count nothing is reflected: reads free) and
+    calibrated back (UNIT_OF_COUNT)."""
+    if noise > 0.0:
+        count = count * (1.0 + noise * sigma * g)
+    count = np.rint(count)
+    if count > float(IR_RAW_MAX):
+        count = float(IR_RAW_MAX)
+    if not count >= 1.0:  # also a NaN: never an index outside the table
+        count = 1.0
+    return UNIT_OF_COUNT[int(count)]
+
+
+@njit(cache=True, error_model="numpy", inline="always")
 def khepera_unit(gap, ir_range, noise, g):
     """A Khepera III IR reading of a wall `gap` cm from the sensor, on the simulator's scale: the paper's
     calibration turned into a 12-bit count, times 1 + noise x sigma(gap) x g (g a standard Gaussian draw; sigma a
     real sensor's relative noise, `ir_relative_noise`), rounded to a count and calibrated back, clipped to [0, 1]:
     what the emulator (hardware.emulated_world) answers and the hardware env reads, in float64."""
-    log_count = min(IR_CALIBRATION_B + (IR_CALIBRATION_A - gap / ir_range) * IR_CALIBRATION_C, _LOG10_RAW_MAX)
-    count = math.exp(log_count * _LN10)
-    if noise > 0.0:
-        count = count * (1.0 + noise * ir_relative_noise(gap) * g)
-    count = min(max(np.rint(count), 1.0), float(IR_RAW_MAX))  # below one count nothing is reflected: reads free
-    u = IR_CALIBRATION_A - (math.log(count) / _LN10 - IR_CALIBRATION_B) / IR_CALIBRATION_C
-    return min(max(u, 0.0), 1.0)
+    sigma = ir_relative_noise(gap) if noise > 0.0 else 0.0
+    return khepera_reading(khepera_count(gap, ir_range), sigma, noise, g)
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -125,7 +155,17 @@ def sensed_reading(b, r, j, tick, raw, params, noise, seed, key):
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def khepera_pair(b, r, j, tick, raw, params, noise, seed, key):
+def khepera_ray(b, r, j, raw, params, noise, free_count, free_sigma):
+    """The noise-free count and relative noise of robot r's ray j: those of a free ray (`free_count`,
+    `free_sigma`, computed once per tick) when it hit nothing, the most common case, else from its gap."""
+    if raw[b, r, j] == params[P_RANGE]:
+        return free_count, free_sigma
+    gap = raw[b, r, j] - params[P_RADIUS]
+    return khepera_count(gap, params[P_IR]), ir_relative_noise(gap) if noise > 0.0 else 0.0
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def khepera_pair(b, r, j, tick, raw, params, noise, seed, key, free_count, free_sigma):
     """Sensors j and j + 1 of robot r by the "khepera" model for tick `tick`, in float32: one Box-Muller pair of
     Gaussians (from the draws of sensor j and CH_SENSOR_GAUSS + j) serves both."""
     g0 = 0.0
@@ -135,10 +175,10 @@ def khepera_pair(b, r, j, tick, raw, params, noise, seed, key):
         angle = 2.0 * math.pi * uniform(seed, key, tick, r, CH_SENSOR_GAUSS + j)
         g0 = radius * math.cos(angle)
         g1 = radius * math.sin(angle)
-    gap0 = raw[b, r, j] - params[P_RADIUS]
-    gap1 = raw[b, r, j + 1] - params[P_RADIUS]
-    return (np.float32(khepera_unit(gap0, params[P_IR], noise, g0)),
-            np.float32(khepera_unit(gap1, params[P_IR], noise, g1)))
+    count0, sigma0 = khepera_ray(b, r, j, raw, params, noise, free_count, free_sigma)
+    count1, sigma1 = khepera_ray(b, r, j + 1, raw, params, noise, free_count, free_sigma)
+    return (np.float32(khepera_reading(count0, sigma0, noise, g0)),
+            np.float32(khepera_reading(count1, sigma1, noise, g1)))
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -148,10 +188,16 @@ def encode_episode(b, tick, raw, obs, rflag, params, seed, key):
     f_ceil = np.float32(params[P_CEIL])
     noise = params[P_SNOISE] / 100.0
     khepera = params[P_SMODEL] > 0.5
+    free_count = 0.0
+    free_sigma = 0.0
+    if khepera:  # a ray that hit nothing reads the range's gap
+        free_gap = params[P_RANGE] - params[P_RADIUS]
+        free_count = khepera_count(free_gap, params[P_IR])
+        free_sigma = ir_relative_noise(free_gap) if noise > 0.0 else 0.0
     for r in range(raw.shape[1]):
         if khepera:
             for j in range(0, 6, 2):
-                s0, s1 = khepera_pair(b, r, j, tick, raw, params, noise, seed, key)
+                s0, s1 = khepera_pair(b, r, j, tick, raw, params, noise, seed, key, free_count, free_sigma)
                 obs[b, r, j] = input_value(s0, f_floor, f_ceil)
                 obs[b, r, j + 1] = input_value(s1, f_floor, f_ceil)
         else:

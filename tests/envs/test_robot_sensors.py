@@ -14,11 +14,12 @@ from numba import njit
 from scipy import stats
 
 from mahn_envs.core import BatchSim, TaskParams
-from mahn_envs.core.task import P_RNOISE, P_SMODEL, encode_episode, khepera_unit
+from mahn_envs.core.task import P_RANGE, P_RNOISE, P_SMODEL, UNIT_OF_COUNT, encode_episode, khepera_unit, unit_of_count
 from mahn_envs.hardware.calibration import PAPER
 from mahn_envs.hardware.clock import VirtualClock
 from mahn_envs.hardware.emulated_world import EmulatedWorld
 from mahn_envs.hardware.protocol import FRONT_SENSORS
+from mahn_envs.khepera import IR_CALIBRATION_A, IR_CALIBRATION_B, IR_CALIBRATION_C, IR_RAW_MAX
 from mahn_envs.patrol_return_v0 import parallel_env
 from mahn_evo.evaluation.task_setup import NOISE_PRESETS, task_params
 from mahn_evo.training.config import EvolutionConfig
@@ -84,11 +85,27 @@ def _encoded(raw, params, seed):
     for b in range(raw.shape[0]):
         encode_episode(b, 1, raw, obs, rflag, params, seed, np.uint64(b))
     return obs
-    # the core draws its Gaussians from the episode's counter-based stream: the same key, the same readings
+
+
+def test_khepera_readings_are_drawn_from_the_episodes_stream():
+    """The core draws its Gaussians from the episode's counter-based stream: the same key, the same readings."""
     sim = BatchSim("plus", 2, TaskParams(sensor_model="khepera", sensor_noise=100.0))
     a = sim.reset(seed=3, episode_keys=[7, 7]).copy()
     assert np.array_equal(a[0], a[1])
     assert not np.array_equal(a[0], sim.reset(seed=3, episode_keys=[8, 8])[0])
+
+
+def test_the_count_table_is_the_calibration_formula():
+    """The readings look a rounded count up (UNIT_OF_COUNT) instead of taking its logarithm: the table holds the
+    formula's value for every count, and a ray that hit nothing reads as one at the range's gap."""
+    counts = np.arange(1, IR_RAW_MAX + 1, dtype=np.float64)
+    formula = np.clip(IR_CALIBRATION_A - (np.log(counts) / np.log(10.0) - IR_CALIBRATION_B) / IR_CALIBRATION_C, 0, 1)
+    np.testing.assert_allclose(UNIT_OF_COUNT[1:], formula, rtol=0, atol=1e-15)
+    assert all(UNIT_OF_COUNT[k] == unit_of_count(float(k)) for k in (1, 2, 17, 1000, IR_RAW_MAX))
+    params = TaskParams(sensor_model="khepera", sensor_noise=100.0).vector()
+    free = np.full((64, 1, 6), params[P_RANGE])
+    near_free = np.full((64, 1, 6), np.nextafter(params[P_RANGE], 0.0))  # the same gap within 2e-15, but hit
+    np.testing.assert_array_equal(_encoded(free, params, 4), _encoded(near_free, params, 4))
 
 
 def _headings_at_a_wall(**task) -> np.ndarray:
