@@ -13,8 +13,11 @@ work, interleaved, several times, and the fastest run of each is compared:
 By default one numba thread and CPU time (time.process_time), so a busy machine slows both sides alike and the
 ratio stays meaningful; --threads 2 times wall clock on both cores instead.  Fitness and trajectories of every
 episode must agree exactly between the versions (the optimisations are required to be bit-identical).
+--noise P runs the core's workloads (controllers, random, step) under noise preset P of the trainer
+(mahn_evo.evaluation.task_setup.NOISE_PRESETS: generalization, robot), e.g. to time the robot's sensor model; the
+revision must know the preset's fields.
 Usage: python benchmarks/bench_ab.py [--rev dafc457] [--batch 500] [--repeats 6] [--threads 1] [--brains 2]
-       [--teams random|champions] [--only controllers random step env]
+       [--teams random|champions] [--noise none|generalization|robot] [--only controllers random step env]
 """
 from __future__ import annotations
 
@@ -69,13 +72,22 @@ def import_revision(rev: str, into: str):
     return importlib.import_module("mahn_envs_ab")
 
 
-def workloads(pkg, teams: TeamControllers, batch: int, env_steps: int) -> dict:
+def task_params(core, fields: dict):
+    """The version's TaskParams with `fields` (a noise preset), or an error naming what the version lacks."""
+    try:
+        return core.TaskParams(**fields)
+    except TypeError as e:
+        raise SystemExit(f"{core.__name__} cannot take the noise preset's fields {sorted(fields)}: {e}") from None
+
+
+def workloads(pkg, teams: TeamControllers, batch: int, env_steps: int, fields: dict) -> dict:
     """name -> (run, units per run, unit name, result for the identity check) for one version."""
     core = pkg.core if hasattr(pkg, "core") else importlib.import_module(pkg.__name__ + ".core")
     env_mod = pkg.patrol_return_v0 if hasattr(pkg, "patrol_return_v0") else new_env
-    sim_c = core.BatchSim("plus", batch)
-    sim_r = core.BatchSim("plus", batch)
-    sim_s = core.BatchSim("plus", 16)
+    params = task_params(core, fields)
+    sim_c = core.BatchSim("plus", batch, params)
+    sim_r = core.BatchSim("plus", batch, params)
+    sim_s = core.BatchSim("plus", 16, params)
     ticks = sim_c.params.max_cycles
     actions = np.random.default_rng(0).integers(0, 3, (ticks, 16, 3))
     env_actions = np.random.default_rng(1).integers(0, 3, (env_steps, 3))
@@ -120,10 +132,15 @@ def main() -> None:
     ap.add_argument("--brains", type=int, default=2)
     ap.add_argument("--teams", choices=("random", "champions"), default="random")
     ap.add_argument("--env-steps", type=int, default=4000)
+    ap.add_argument("--noise", choices=("none", "generalization", "robot"), default="none",
+                    help="noise preset of the core's workloads (the env runs noise-free)")
     ap.add_argument("--only", nargs="+", default=["controllers", "random", "step", "env"])
     args = ap.parse_args()
     import numba
 
+    from mahn_evo.evaluation.task_setup import NOISE_PRESETS
+
+    fields = dict(NOISE_PRESETS[args.noise])
     numba.set_num_threads(args.threads)
     clock = time.process_time if args.threads == 1 else time.perf_counter
     teams = random_teams(args.batch, args.brains) if args.teams == "random" else champion_teams(args.batch)
@@ -133,11 +150,11 @@ def main() -> None:
         importlib.import_module("mahn_envs_ab.patrol_return_v0")
         import mahn_envs
 
-        versions = {args.rev: workloads(old_pkg, teams, args.batch, args.env_steps),
-                    "checkout": workloads(mahn_envs, teams, args.batch, args.env_steps)}
+        versions = {args.rev: workloads(old_pkg, teams, args.batch, args.env_steps, fields),
+                    "checkout": workloads(mahn_envs, teams, args.batch, args.env_steps, fields)}
         what = "CPU s, 1 thread" if args.threads == 1 else f"wall s, {args.threads} threads"
         print(f"{args.rev} against this checkout ({what}, fastest of {args.repeats}); results identical in every "
-              f"workload; {args.teams} teams")
+              f"workload; {args.teams} teams; noise {args.noise}")
         names = list(versions)
         for w in args.only:
             results = {k: versions[k][w][0]() for k in names}  # compile / warm up
