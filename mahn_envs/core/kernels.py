@@ -46,7 +46,7 @@ from .controller import (
     remembered_action,
     remembered_actions_16,
 )
-from .rng import CH_ACTION, uniform
+from .rng import CH_ACTION, tick_stream, uniform
 from .task import (
     E_TICK,
     F_SIGNAL,
@@ -56,7 +56,7 @@ from .task import (
     X,
     Y,
     cast_robot_rays,
-    decide_robot,
+    decide_robot_drawn,
     drive_robot,
     encode_episode,
     score_tick,
@@ -87,8 +87,9 @@ def decide_tick(b, actions, state, task):
     est = state[6]
     tick = est[b, E_TICK] + 1
     est[b, E_TICK] = tick
+    stream = tick_stream(task[1], task[2][b], tick)
     for r in range(pose.shape[1]):
-        decide_robot(b, r, actions[b, r], tick, pose, state[1], state[2], task[0], task[1], task[2][b])
+        decide_robot_drawn(b, r, actions[b, r], pose, state[1], state[2], task[0], stream)
     return tick
 
 
@@ -354,13 +355,14 @@ def run_controllers(state, arena, task, work, nets, brains, result, traj, record
             if size_9:  # every robot's network first (they overlap), each robot's action in memo[r, 2]
                 remembered_actions_16(b, obs, rflag, F_SIGNAL, n_brains, wpack, bpack, lanes, brain, prev, memo_obs,
                                       memo, pending, by_net)
+            stream = tick_stream(seed, key, tick)
             for r in range(n_robots):
                 if size_9:
                     action = memo[r, 2]
                 else:
                     action = remembered_action(b, r, obs, rflag[b, r, F_SIGNAL], wt_ih, wt_hh, wt_ho, b_h, b_o,
                                                hid, out, brain, tmp_h, prev_0, memo_obs, memo, by_net)
-                decide_robot(b, r, action, tick, pose, raw, obs, params, seed, key)
+                decide_robot_drawn(b, r, action, pose, raw, obs, params, stream)
                 if record:
                     traj[b, tick, r, 3] = action
             # `move_tick`, `score_tick`, `sense_tick` of the shared tick, on the episode's memo rows

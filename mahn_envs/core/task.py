@@ -23,7 +23,7 @@ from numba import njit
 
 from ..khepera import IR_CALIBRATION_A, IR_CALIBRATION_B, IR_CALIBRATION_C, IR_NOISE_GAP_M, IR_NOISE_SIGMA, IR_RAW_MAX
 from .geometry import cast_rays_trig, touches_any_wall
-from .rng import CH_HEADING, CH_SENSOR, CH_SENSOR_GAUSS, CH_SPEED, CH_TURN, uniform
+from .rng import CH_HEADING, CH_SENSOR, CH_SENSOR_GAUSS, CH_SPEED, CH_TURN, stream_uniform, tick_stream
 
 # indices into the float64 parameter vector built by TaskParams.vector()
 P_RADIUS, P_SPEED, P_TURN, P_DT, P_IR, P_RANGE, P_FLOOR = 0, 1, 2, 3, 4, 5, 6
@@ -100,6 +100,13 @@ def ir_relative_noise(gap):
 
 
 @njit(cache=True, error_model="numpy", inline="always")
+def khepera_count_sigma(gap, ir_range, noise):
+    """A Khepera III sensor `gap` cm from a wall: its noise-free count (`khepera_count`) and its relative noise
+    (`ir_relative_noise`; 0 when the noise is off, so a noise-free reading never looks the table up)."""
+    return khepera_count(gap, ir_range), ir_relative_noise(gap) if noise > 0.0 else 0.0
+
+
+@njit(cache=True, error_model="numpy", inline="always")
 def khepera_count(gap, ir_range):
     """The noise-free 12-bit count (not yet rounded) of a Khepera III IR sensor `gap` cm from a wall, by the
     paper's calibration."""
@@ -140,17 +147,18 @@ def khepera_unit(gap, ir_range, noise, g):
     calibration turned into a 12-bit count, times 1 + noise x sigma(gap) x g (g a standard Gaussian draw; sigma a
     real sensor's relative noise, `ir_relative_noise`), rounded to a count and calibrated back, clipped to [0, 1]:
     what the emulator (hardware.emulated_world) answers and the hardware env reads, in float64."""
-    sigma = ir_relative_noise(gap) if noise > 0.0 else 0.0
-    return khepera_reading(khepera_count(gap, ir_range), sigma, noise, g)
+    count, sigma = khepera_count_sigma(gap, ir_range, noise)
+    return khepera_reading(count, sigma, noise, g)
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def sensed_reading(b, r, j, tick, raw, params, noise, seed, key):
-    """Sensor j of robot r as the original's uniform sensor model senses it for tick `tick`: the unit reading with
-    +-noise uniform (the draw of (seed, key, tick, r, sensor j)), before the cap and the floor, in float32."""
+def sensed_reading(b, r, j, raw, params, noise, stream):
+    """Sensor j of robot r as the original's uniform sensor model senses it for the tick of `stream`
+    (`rng.tick_stream`): the unit reading with +-noise uniform (the draw of (r, sensor j)), before the cap and the
+    floor, in float32."""
     s = unit_reading(raw[b, r, j], np.float32(params[P_RADIUS]), np.float32(params[P_IR]))
     if noise > 0.0:
-        s = np.float32(s + np.float32(noise * (2.0 * uniform(seed, key, tick, r, CH_SENSOR + j) - 1.0)))
+        s = np.float32(s + np.float32(noise * (2.0 * stream_uniform(stream, r, CH_SENSOR + j) - 1.0)))
     return s
 
 
@@ -160,19 +168,18 @@ def khepera_ray(b, r, j, raw, params, noise, free_count, free_sigma):
     `free_sigma`, computed once per tick) when it hit nothing, the most common case, else from its gap."""
     if raw[b, r, j] == params[P_RANGE]:
         return free_count, free_sigma
-    gap = raw[b, r, j] - params[P_RADIUS]
-    return khepera_count(gap, params[P_IR]), ir_relative_noise(gap) if noise > 0.0 else 0.0
+    return khepera_count_sigma(raw[b, r, j] - params[P_RADIUS], params[P_IR], noise)
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def khepera_pair(b, r, j, tick, raw, params, noise, seed, key, free_count, free_sigma):
-    """Sensors j and j + 1 of robot r by the "khepera" model for tick `tick`, in float32: one Box-Muller pair of
-    Gaussians (from the draws of sensor j and CH_SENSOR_GAUSS + j) serves both."""
+def khepera_pair(b, r, j, raw, params, noise, stream, free_count, free_sigma):
+    """Sensors j and j + 1 of robot r by the "khepera" model for the tick of `stream`, in float32: one Box-Muller
+    pair of Gaussians (from the draws of sensor j and CH_SENSOR_GAUSS + j) serves both."""
     g0 = 0.0
     g1 = 0.0
     if noise > 0.0:
-        radius = math.sqrt(-2.0 * math.log(1.0 - uniform(seed, key, tick, r, CH_SENSOR + j)))
-        angle = 2.0 * math.pi * uniform(seed, key, tick, r, CH_SENSOR_GAUSS + j)
+        radius = math.sqrt(-2.0 * math.log(1.0 - stream_uniform(stream, r, CH_SENSOR + j)))
+        angle = 2.0 * math.pi * stream_uniform(stream, r, CH_SENSOR_GAUSS + j)
         g0 = radius * math.cos(angle)
         g1 = radius * math.sin(angle)
     count0, sigma0 = khepera_ray(b, r, j, raw, params, noise, free_count, free_sigma)
@@ -188,21 +195,20 @@ def encode_episode(b, tick, raw, obs, rflag, params, seed, key):
     f_ceil = np.float32(params[P_CEIL])
     noise = params[P_SNOISE] / 100.0
     khepera = params[P_SMODEL] > 0.5
+    stream = tick_stream(seed, key, tick)  # every draw of this tick starts from it
     free_count = 0.0
     free_sigma = 0.0
     if khepera:  # a ray that hit nothing reads the range's gap
-        free_gap = params[P_RANGE] - params[P_RADIUS]
-        free_count = khepera_count(free_gap, params[P_IR])
-        free_sigma = ir_relative_noise(free_gap) if noise > 0.0 else 0.0
+        free_count, free_sigma = khepera_count_sigma(params[P_RANGE] - params[P_RADIUS], params[P_IR], noise)
     for r in range(raw.shape[1]):
         if khepera:
             for j in range(0, 6, 2):
-                s0, s1 = khepera_pair(b, r, j, tick, raw, params, noise, seed, key, free_count, free_sigma)
+                s0, s1 = khepera_pair(b, r, j, raw, params, noise, stream, free_count, free_sigma)
                 obs[b, r, j] = input_value(s0, f_floor, f_ceil)
                 obs[b, r, j + 1] = input_value(s1, f_floor, f_ceil)
         else:
             for j in range(6):
-                obs[b, r, j] = input_value(sensed_reading(b, r, j, tick, raw, params, noise, seed, key), f_floor,
+                obs[b, r, j] = input_value(sensed_reading(b, r, j, raw, params, noise, stream), f_floor,
                                            f_ceil)
         obs[b, r, 6] = np.float32(rflag[b, r, F_SIGNAL])
 
@@ -281,12 +287,18 @@ def decide_robot(b, r, action, tick, pose, raw, obs, params, seed, key):
     and the front branch stops without turning: original quirks that shape the evolved behaviour (`steer`).
     Returns True when the front reflex blocked the robot (the original's `corrected`).
     """
+    return decide_robot_drawn(b, r, action, pose, raw, obs, params, tick_stream(seed, key, tick))
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def decide_robot_drawn(b, r, action, pose, raw, obs, params, stream):
+    """`decide_robot` for the tick of `stream` (`rng.tick_stream`, computed once per tick by the hot loops)."""
     speed = params[P_SPEED]
     turn = params[P_TURN]
     e = params[P_ENOISE] / 100.0
     if e > 0.0:
-        speed = speed * (1.0 + e * (2.0 * uniform(seed, key, tick, r, CH_SPEED) - 1.0))
-        turn = turn * (1.0 + e * (2.0 * uniform(seed, key, tick, r, CH_TURN) - 1.0))
+        speed = speed * (1.0 + e * (2.0 * stream_uniform(stream, r, CH_SPEED) - 1.0))
+        turn = turn * (1.0 + e * (2.0 * stream_uniform(stream, r, CH_TURN) - 1.0))
     step = float(np.float32(np.float32(params[P_DT]) * np.float32(turn)))
     response = REFLEX_CLEAR
     if action == FORWARD and params[P_REFLEX] > 0.5:
@@ -313,7 +325,7 @@ def decide_robot(b, r, action, tick, pose, raw, obs, params, seed, key):
         pose[b, r, H] -= step
     hn = params[P_HNOISE]
     if hn > 0.0:
-        pose[b, r, H] += hn * (2.0 * uniform(seed, key, tick, r, CH_HEADING) - 1.0)
+        pose[b, r, H] += hn * (2.0 * stream_uniform(stream, r, CH_HEADING) - 1.0)
     return response == REFLEX_FRONT_BLOCKED
 
 
