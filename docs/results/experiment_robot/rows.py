@@ -1,0 +1,104 @@
+"""The robot-noise experiment's per-run rows: collected from the run folders and their checks, and printed as the
+README's table, so every number on the page comes from runs.jsonl.
+
+  python docs/results/experiment_robot/rows.py collect RUNS_DIR CHECK_DIR > runs.jsonl
+      one JSON line per finished run: its summary.json (seed, first solution, generations, wall time) and its
+      check (../robot_pilot/pilot_check.py output, CHECK_DIR/situational_sNNN.jsonl, when there is one)
+  python docs/results/experiment_robot/rows.py table runs.jsonl
+      the markdown table and the counts quoted in the README
+"""
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+#: a pick is robust by the issue's test when it succeeds in at least this fraction of the 10 noisy sequential
+#: episodes (generalisation noise) on each map
+ROBUST = 0.8
+#: ... and passes the emulated robots when it solves at least this many of their 10 noisy episodes
+EMULATOR_PASS = 8
+MAPS = ("plus", "asymmetric_plus")
+
+
+def finished(summary: dict, plan: dict) -> bool:
+    """Whether a run's summary is its end under the experiment's plan (a pilot run copied in with a shorter robust
+    phase has an older summary until its extension ends)."""
+    first = summary.get("first_solved_generation")
+    return summary["generations"] >= plan["generations"] or (
+        first is not None and summary["generations"] > first + plan["after_solved"])
+
+
+def collect(runs_dir: Path, check_dir: Path) -> list[dict]:
+    plan = json.loads((runs_dir.parent / "experiment.json").read_text())
+    rows = []
+    for summary_path in sorted(runs_dir.glob("situational_s*/summary.json")):
+        summary = json.loads(summary_path.read_text())
+        if not finished(summary, plan):
+            continue
+        run = summary_path.parent.name
+        row = {k: summary.get(k) for k in ("seed", "first_solved_generation", "generations", "robust_from_generation",
+                                           "wall_seconds")}
+        row["run"] = run
+        check = check_dir / f"{run}.jsonl"
+        if check.exists() and check.read_text().strip():
+            row["check"] = json.loads(check.read_text().strip().splitlines()[-1])
+            row["check"]["run"] = f"{runs_dir.parent.name}/runs/{run}"  # no machine's paths in published data
+        rows.append(row)
+    return rows
+
+
+def robust(check: dict) -> bool:
+    return all(check["transfer"][m] >= ROBUST for m in MAPS)
+
+
+def emulated(check: dict) -> bool:
+    return check["emulator"]["noisy_solved"] >= EMULATOR_PASS
+
+
+def table(rows: list[dict]) -> str:
+    lines = ["| seed | first solution | generations (robust from) | pick's validation (plus / variants) | "
+             "transfer, generalisation noise (plus / asym) | sequential, robot noise (plus / asym) | "
+             "core, robot noise | emulator |",
+             "|---|---|---|---|---|---|---|---|"]
+    for row in sorted(rows, key=lambda r: r["seed"]):
+        c = row.get("check")
+        first = row["first_solved_generation"]
+        gens = f"{row['generations']} ({row['robust_from_generation']})" if row.get("robust_from_generation") \
+            else str(row["generations"])
+        if c is None:
+            lines.append(f"| {row['seed']} | {first if first is not None else 'unsolved'} | {gens} | "
+                         "not checked yet | | | | |")
+            continue
+        t, s = c["transfer"], c["robot_sequential"]
+        mark = "**" if robust(c) and emulated(c) else ""
+        lines.append(
+            f"| {row['seed']} | {first if first is not None else 'unsolved'} | {gens} | "
+            f"{c['validation_plus']}/10, {c['validation_variants']}/20 | "
+            f"{mark}{t['plus']:.1f} / {t['asymmetric_plus']:.1f}{mark} | "
+            f"{s['plus']:.1f} / {s['asymmetric_plus']:.1f} | "
+            f"{c['core']['robot_preset']:.2f} | {mark}{c['emulator']['noisy_solved']}/10{mark} |")
+    checked = [r["check"] for r in rows if "check" in r]
+    solved = [r for r in rows if r["first_solved_generation"] is not None]
+    lines += ["", f"{len(rows)} runs finished, {len(solved)} solved; of {len(checked)} checked picks "
+              f"{sum(robust(c) for c in checked)} pass the issue's test (>= {ROBUST:.0%} of 10 noisy sequential "
+              f"episodes on both maps), {sum(emulated(c) for c in checked)} the emulator (>= {EMULATOR_PASS}/10), "
+              f"{sum(robust(c) and emulated(c) for c in checked)} both."]
+    return "\n".join(lines)
+
+
+def main(argv: list[str]) -> int:
+    if len(argv) == 3 and argv[0] == "collect":
+        for row in collect(Path(argv[1]), Path(argv[2])):
+            print(json.dumps(row))
+        return 0
+    if len(argv) == 2 and argv[0] == "table":
+        rows = [json.loads(line) for line in Path(argv[1]).read_text().splitlines() if line.strip()]
+        print(table(rows))
+        return 0
+    print(__doc__, file=sys.stderr)
+    return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
