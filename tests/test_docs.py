@@ -90,3 +90,17 @@ def test_architecture_folder_rows_name_every_module_inside():
         for p in (ROOT / name).glob("*.py"):
             if p.name != "__init__.py":
                 assert f"`{p.name}`" in row, f"{name} row does not mention {p.name}"
+
+
+def test_the_robot_experiment_table_is_made_from_its_rows():
+    """docs/results/experiment_robot/README.md quotes rows.py's table of runs.jsonl, word for word."""
+    import importlib.util
+    import json
+
+    folder = ROOT / "docs" / "results" / "experiment_robot"
+    spec = importlib.util.spec_from_file_location("experiment_robot_rows", folder / "rows.py")
+    rows_py = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(rows_py)
+    rows = [json.loads(line) for line in (folder / "runs.jsonl").read_text().splitlines() if line.strip()]
+    assert rows, "runs.jsonl is empty"
+    assert rows_py.table(rows) in (folder / "README.md").read_text()
