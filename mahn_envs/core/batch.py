@@ -71,6 +71,10 @@ def check_start_jitter(world: World, params: TaskParams, radius: float) -> None:
                              f"radius is {radius:g} cm): use a smaller jitter")
 
 
+#: at most this much memory for the sensor-Gaussian tables of one reset (BatchSim._share_sensor_gaussians)
+GAUSS_TABLE_BYTES = 256 * 2**20
+
+
 class BatchSim:
     """B episodes of the task in lock-step.  All randomness flows from the seed given to `reset`."""
 
@@ -112,6 +116,9 @@ class BatchSim:
         self._work = (np.zeros((B, R, 2)), np.full((B, R, 4), np.nan), np.zeros((B, R, 2)),
                       np.zeros((B, self.arena.walls.shape[0]), dtype=np.int64))
         self._scores = (self.prev_fit, self.rewards, self.solved)
+        self._gauss = T.NO_GAUSSIANS
+        self._gauss_rows = np.full(B, -1, dtype=np.int64)
+        self._gauss_made_for: tuple | None = None
         self._reset_done = False
 
     def set_params(self, **changes) -> TaskParams:
@@ -123,12 +130,43 @@ class BatchSim:
         kernels.forget_rays(self._work)
         return self.params
 
-    def _task(self) -> tuple:
-        """The kernels' `task` group: the parameter vector, the seed and the episode keys."""
+    def _kernel_seed(self) -> int:
         # the kernels take the seed as a 64-bit signed integer and mix it as uint64 (core.rng): seeds of 2**63 and
         # above are passed as the signed integer with the same bits
-        seed = self.seed - 2**64 if self.seed >= 2**63 else self.seed
-        return (self._pvec, seed, self.keys)
+        return self.seed - 2**64 if self.seed >= 2**63 else self.seed
+
+    def _task(self) -> tuple:
+        """The kernels' `task` group: the parameter vector, the seed, the episode keys and the sensor Gaussians of
+        shared keys (`_share_sensor_gaussians`)."""
+        return (self._pvec, self._kernel_seed(), self.keys, self._gauss, self._gauss_rows)
+
+    def _share_sensor_gaussians(self) -> None:
+        """Under the "khepera" sensor model with noise, the Gaussians of every episode key that two or more
+        episodes share, computed once into a table (kernels.fill_sensor_gaussians) that those episodes read
+        instead of drawing their own: the same numbers, since a draw is a pure function of (seed, key, tick,
+        robot, channel).  A trainer's batch plays all its teams on one key (common random numbers), so its
+        episodes stop paying a Box-Muller pair per two sensors and tick (most of the robot noise's cost).  The
+        tables of one reset take at most GAUSS_TABLE_BYTES (keys shared most first); other episodes draw their
+        own, as do episodes beyond a table's ticks (after set_params lengthened them)."""
+        self._gauss_rows[:] = -1
+        p = self.params
+        if p.sensor_model != "khepera" or p.sensor_noise <= 0.0 or self.n_episodes < 2:
+            return
+        keys, inverse, counts = np.unique(self.keys, return_inverse=True, return_counts=True)
+        n_ticks = p.max_cycles + 2  # inputs are sensed for ticks 1 .. max_cycles + 1
+        per_key = n_ticks * self.n_robots * 6 * 8
+        shared = np.flatnonzero(counts >= 2)
+        shared = shared[np.argsort(-counts[shared], kind="stable")][:GAUSS_TABLE_BYTES // per_key]
+        if len(shared) == 0:
+            return
+        made_for = (self.seed, n_ticks, self.n_robots, tuple(int(k) for k in keys[shared]))
+        if made_for != self._gauss_made_for:  # a batch reset again with the same seed and keys keeps its table
+            self._gauss = np.empty((len(shared), n_ticks, self.n_robots, 6))
+            kernels.fill_sensor_gaussians(self._kernel_seed(), np.ascontiguousarray(keys[shared]), self._gauss)
+            self._gauss_made_for = made_for
+        row_of_key = np.full(len(keys), -1, dtype=np.int64)
+        row_of_key[shared] = np.arange(len(shared))
+        self._gauss_rows[:] = row_of_key[inverse]
 
     # ------------------------------------------------------------------ episode control
     def start_poses(self, seed: int, episode_keys: np.ndarray) -> np.ndarray:
@@ -174,6 +212,7 @@ class BatchSim:
         self.rewards[:] = 0.0
         self.solved[:] = False
         kernels.forget_rays(self._work)
+        self._share_sensor_gaussians()
         kernels.sense_all(1, self._state, self._geometry, self._task(), self._work)
         self._reset_done = True
         return self.obs

@@ -172,16 +172,31 @@ def khepera_ray(b, r, j, raw, params, noise, free_count, free_sigma):
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def khepera_pair(b, r, j, raw, params, noise, stream, free_count, free_sigma):
-    """Sensors j and j + 1 of robot r by the "khepera" model for the tick of `stream`, in float32: one Box-Muller
-    pair of Gaussians (from the draws of sensor j and CH_SENSOR_GAUSS + j) serves both."""
+def sensor_gaussian_pair(stream, r, j):
+    """The standard Gaussians of robot r's sensors j and j + 1 for the tick of `stream` (the "khepera" model): one
+    Box-Muller pair from the draws of sensor j and CH_SENSOR_GAUSS + j."""
+    radius = math.sqrt(-2.0 * math.log(1.0 - stream_uniform(stream, r, CH_SENSOR + j)))
+    angle = 2.0 * math.pi * stream_uniform(stream, r, CH_SENSOR_GAUSS + j)
+    return radius * math.cos(angle), radius * math.sin(angle)
+
+
+#: no table of sensor Gaussians (`encode_episode`'s gauss with row -1): every pair is computed where it is read
+NO_GAUSSIANS = np.zeros((0, 0, 0, 0))
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def khepera_pair(b, r, j, tick, raw, params, noise, stream, free_count, free_sigma, gauss, row):
+    """Sensors j and j + 1 of robot r by the "khepera" model for tick `tick` (of `stream`), in float32, from one
+    pair of Gaussians (`sensor_gaussian_pair`): read from gauss[row, tick, r] when the episode has a row there (its
+    key's pairs computed once for every episode of that key, kernels.fill_sensor_gaussians), else computed."""
     g0 = 0.0
     g1 = 0.0
     if noise > 0.0:
-        radius = math.sqrt(-2.0 * math.log(1.0 - stream_uniform(stream, r, CH_SENSOR + j)))
-        angle = 2.0 * math.pi * stream_uniform(stream, r, CH_SENSOR_GAUSS + j)
-        g0 = radius * math.cos(angle)
-        g1 = radius * math.sin(angle)
+        if row >= 0 and tick < gauss.shape[1]:
+            g0 = gauss[row, tick, r, j]
+            g1 = gauss[row, tick, r, j + 1]
+        else:
+            g0, g1 = sensor_gaussian_pair(stream, r, j)
     count0, sigma0 = khepera_ray(b, r, j, raw, params, noise, free_count, free_sigma)
     count1, sigma1 = khepera_ray(b, r, j + 1, raw, params, noise, free_count, free_sigma)
     return (np.float32(khepera_reading(count0, sigma0, noise, g0)),
@@ -191,6 +206,13 @@ def khepera_pair(b, r, j, raw, params, noise, stream, free_count, free_sigma):
 @njit(cache=True, error_model="numpy", inline="always")
 def encode_episode(b, tick, raw, obs, rflag, params, seed, key):
     """Turn ray distances into inputs: (d - 6.5)/10.16 in float32, noise, capped at 1, floored to 0 at <= 0.25."""
+    encode_episode_with(b, tick, raw, obs, rflag, params, seed, key, NO_GAUSSIANS, -1)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def encode_episode_with(b, tick, raw, obs, rflag, params, seed, key, gauss, row):
+    """`encode_episode` with the "khepera" model's Gaussians read from gauss[row] where row >= 0 (see
+    `khepera_pair`): the same inputs, bit for bit."""
     f_floor = np.float32(params[P_FLOOR])
     f_ceil = np.float32(params[P_CEIL])
     noise = params[P_SNOISE] / 100.0
@@ -203,7 +225,7 @@ def encode_episode(b, tick, raw, obs, rflag, params, seed, key):
     for r in range(raw.shape[1]):
         if khepera:
             for j in range(0, 6, 2):
-                s0, s1 = khepera_pair(b, r, j, raw, params, noise, stream, free_count, free_sigma)
+                s0, s1 = khepera_pair(b, r, j, tick, raw, params, noise, stream, free_count, free_sigma, gauss, row)
                 obs[b, r, j] = input_value(s0, f_floor, f_ceil)
                 obs[b, r, j + 1] = input_value(s1, f_floor, f_ceil)
         else:

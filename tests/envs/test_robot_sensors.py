@@ -21,6 +21,7 @@ from mahn_envs.hardware.emulated_world import EmulatedWorld
 from mahn_envs.hardware.protocol import FRONT_SENSORS
 from mahn_envs.khepera import IR_CALIBRATION_A, IR_CALIBRATION_B, IR_CALIBRATION_C, IR_RAW_MAX
 from mahn_envs.patrol_return_v0 import parallel_env
+from mahn_envs.policies.team_controllers import TeamControllers
 from mahn_evo.evaluation.task_setup import NOISE_PRESETS, task_params
 from mahn_evo.training.config import EvolutionConfig
 
@@ -153,3 +154,50 @@ def test_the_pettingzoo_env_takes_the_robot_sensors():
     obs, _ = env.reset(seed=1)
     assert env.unwrapped.params.sensor_model == "khepera"
     assert all(o.dtype == np.float32 and o.shape == (7,) for o in obs.values())
+
+
+def _robot_pilot_teams():
+    from pathlib import Path
+
+    from mahn_evo.training.champion import Champion
+
+    folder = Path(__file__).resolve().parents[2] / "docs" / "results" / "robot_pilot" / "champions"
+    return [Champion.load(p).controllers for p in sorted(folder.glob("situational_s0*.json"))[:3]]
+
+
+def test_episodes_on_a_shared_key_read_the_gaussians_they_would_draw_alone():
+    """Under the robot noise, episodes that share a key (a generation's common random numbers) read their sensor
+    Gaussians from one table (BatchSim._share_sensor_gaussians); each must play exactly as alone, where it draws
+    them itself: whole episodes of the training protocol and of the sequential protocol."""
+    from mahn_envs.core.sequential import play_sequential
+
+    params = task_params("robot")
+    teams = _robot_pilot_teams()
+    assert len(teams) == 3
+    batch = TeamControllers.stack(teams)
+    sim = BatchSim("plus", 3, params)
+    shared = sim.run_controllers(batch, seed=11, episode_keys=[5, 5, 5], record=True)
+    assert sim._gauss_rows.tolist() == [0, 0, 0] and sim._gauss.shape[0] == 1  # the table was read
+    for i, team in enumerate(teams):
+        alone_sim = BatchSim("plus", 1, params)
+        alone = alone_sim.run_controllers(team, seed=11, episode_keys=[5], record=True)
+        assert alone_sim._gauss_rows.tolist() == [-1]  # ... and here each draw computed in the episode
+        np.testing.assert_array_equal(shared.trajectories[i], alone.trajectories[0])
+        assert shared.fitness[i] == alone.fitness[0]
+    seq = play_sequential("plus", batch, params, seed=4, episode_keys=[2, 2, 2])
+    for i, team in enumerate(teams):
+        one = play_sequential("plus", team, params, seed=4, episode_keys=[2])
+        np.testing.assert_array_equal(seq.records[i], one.records[0])
+        np.testing.assert_array_equal(seq.stages[i], one.stages[0])
+        assert seq.ticks[i] == one.ticks[0]
+
+
+def test_only_shared_keys_get_a_table_and_the_uniform_model_none():
+    sim = BatchSim("plus", 5, task_params("robot"))
+    sim.reset(seed=3, episode_keys=[9, 4, 9, 7, 4])
+    assert sim._gauss.shape[:2] == (2, sim.params.max_cycles + 2)
+    rows = sim._gauss_rows.tolist()
+    assert rows[3] == -1 and rows[0] == rows[2] >= 0 and rows[1] == rows[4] >= 0 and rows[0] != rows[1]
+    plain = BatchSim("plus", 5, task_params("generalization"))
+    plain.reset(seed=3, episode_keys=[1, 1, 1, 1, 1])
+    assert plain._gauss_rows.tolist() == [-1] * 5
