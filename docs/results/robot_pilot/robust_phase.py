@@ -4,13 +4,15 @@ The score is the generation's robust fitness (the mean over the team's noisy tra
 and its sequential ones); a team that succeeds in every episode scores about 165.  The robust phase starts at the
 run's first solution + robust_delay + 1 (mahn_evo.training.config.robust_phase_start), read from its log and config.
 
-Usage: python docs/results/robot_pilot/robust_phase.py RUN_DIR... (writes robust_phase.csv and robust_phase.png here)
+Usage: python docs/results/robot_pilot/robust_phase.py [--out DIR] RUN_DIR...
+(writes robust_phase.csv and robust_phase.png into DIR, by default this folder; runs without a robust phase yet are
+left out)
 """
 from __future__ import annotations
 
+import argparse
 import csv
 import json
-import sys
 from pathlib import Path
 
 import matplotlib
@@ -37,8 +39,12 @@ def robust_series(run: Path) -> tuple[int, list[tuple[int, float]]]:
 
 
 def main() -> None:
-    series = dict(robust_series(Path(a)) for a in sys.argv[1:])
-    with open(HERE / "robust_phase.csv", "w", newline="") as f:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--out", type=Path, default=HERE)
+    ap.add_argument("runs", nargs="+", type=Path)
+    args = ap.parse_args()
+    series = {seed: s for seed, s in (robust_series(run) for run in args.runs) if s}
+    with open(args.out / "robust_phase.csv", "w", newline="") as f:
         w = csv.writer(f)
         w.writerow(["seed", "robust_generation", "best_score"])
         for seed in sorted(series):
@@ -54,7 +60,7 @@ def main() -> None:
     ax.legend(loc="lower right")
     ax.set_title("hardened-sequential with --noise robot: the robust phase")
     fig.tight_layout()
-    fig.savefig(HERE / "robust_phase.png", dpi=110)
+    fig.savefig(args.out / "robust_phase.png", dpi=110)
     for seed in sorted(series):
         last = series[seed][-10:]
         print(f"seed {seed}: {len(series[seed])} robust generations, best score of the last 10: "
