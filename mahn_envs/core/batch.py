@@ -118,7 +118,6 @@ class BatchSim:
         self._scores = (self.prev_fit, self.rewards, self.solved)
         self._gauss = T.NO_GAUSSIANS
         self._gauss_rows = np.full(B, -1, dtype=np.int64)
-        self._gauss_made_for: tuple | None = None
         self._reset_done = False
 
     def set_params(self, **changes) -> TaskParams:
@@ -159,11 +158,8 @@ class BatchSim:
         shared = shared[np.argsort(-counts[shared], kind="stable")][:GAUSS_TABLE_BYTES // per_key]
         if len(shared) == 0:
             return
-        made_for = (self.seed, n_ticks, self.n_robots, tuple(int(k) for k in keys[shared]))
-        if made_for != self._gauss_made_for:  # a batch reset again with the same seed and keys keeps its table
-            self._gauss = np.empty((len(shared), n_ticks, self.n_robots, 6))
-            kernels.fill_sensor_gaussians(self._kernel_seed(), np.ascontiguousarray(keys[shared]), self._gauss)
-            self._gauss_made_for = made_for
+        self._gauss = np.empty((len(shared), n_ticks, self.n_robots, 6))
+        kernels.fill_sensor_gaussians(self._kernel_seed(), np.ascontiguousarray(keys[shared]), self._gauss)
         row_of_key = np.full(len(keys), -1, dtype=np.int64)
         row_of_key[shared] = np.arange(len(shared))
         self._gauss_rows[:] = row_of_key[inverse]

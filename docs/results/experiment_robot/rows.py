@@ -1,7 +1,7 @@
 """The robot-noise experiment's per-run rows: collected from the run folders and their checks, and printed as the
 README's table, so every number on the page comes from runs.jsonl.
 
-  python docs/results/experiment_robot/rows.py collect RUNS_DIR CHECK_DIR > runs.jsonl
+  python docs/results/experiment_robot/rows.py collect EXPERIMENT_DIR CHECK_DIR > runs.jsonl
       one JSON line per finished run: its summary.json (seed, first solution, generations, wall time) and its
       check (../robot_pilot/pilot_check.py output, CHECK_DIR/situational_sNNN.jsonl, when there is one)
   python docs/results/experiment_robot/rows.py table runs.jsonl
@@ -13,6 +13,9 @@ import json
 import sys
 from pathlib import Path
 
+from mahn_evo.experiment.plan import ExperimentPlan
+from mahn_evo.experiment.table import load_runs
+
 #: a pick is robust by the issue's test when it succeeds in at least this fraction of the 10 noisy sequential
 #: episodes (generalisation noise) on each map
 ROBUST = 0.8
@@ -21,29 +24,22 @@ EMULATOR_PASS = 8
 MAPS = ("plus", "asymmetric_plus")
 
 
-def finished(summary: dict, plan: dict) -> bool:
-    """Whether a run's summary is its end under the experiment's plan (a pilot run copied in with a shorter robust
-    phase has an older summary until its extension ends)."""
-    first = summary.get("first_solved_generation")
-    return summary["generations"] >= plan["generations"] or (
-        first is not None and summary["generations"] > first + plan["after_solved"])
-
-
-def collect(runs_dir: Path, check_dir: Path) -> list[dict]:
-    plan = json.loads((runs_dir.parent / "experiment.json").read_text())
+def collect(experiment_dir: Path, check_dir: Path) -> list[dict]:
+    """The runs the experiment counts as finished under its plan (mahn_evo.experiment.table.load_runs: a pilot run
+    copied in with a shorter robust phase is not, until its extension ends), each with its summary and check."""
     rows = []
-    for summary_path in sorted(runs_dir.glob("situational_s*/summary.json")):
-        summary = json.loads(summary_path.read_text())
-        if not finished(summary, plan):
+    for record in load_runs(ExperimentPlan.load(experiment_dir), experiment_dir):
+        if not record.finished:
             continue
-        run = summary_path.parent.name
+        run = record.name
+        summary = json.loads((record.folder / "summary.json").read_text())
         row = {k: summary.get(k) for k in ("seed", "first_solved_generation", "generations", "robust_from_generation",
                                            "wall_seconds")}
         row["run"] = run
         check = check_dir / f"{run}.jsonl"
         if check.exists() and check.read_text().strip():
             row["check"] = json.loads(check.read_text().strip().splitlines()[-1])
-            row["check"]["run"] = f"{runs_dir.parent.name}/runs/{run}"  # no machine's paths in published data
+            row["check"]["run"] = f"{experiment_dir.name}/runs/{run}"  # no machine's paths in published data
         rows.append(row)
     return rows
 
