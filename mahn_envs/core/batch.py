@@ -347,10 +347,14 @@ class BatchSim:
 
     def run_sequential(self, controllers: TeamControllers, seed: int = 0,
                        episode_keys: Sequence[int] | np.ndarray | None = None,
-                       settings: sequential.SequentialSettings | None = None) -> sequential.SequentialRecords:
+                       settings: sequential.SequentialSettings | None = None,
+                       max_lost: Sequence[int] | np.ndarray | None = None) -> sequential.SequentialRecords:
         """Whole episodes of the sequential (real-world) protocol with evolved controllers in the compiled loop
         (core.sequential): one team in every episode, or team b in episode b.  The sim's params must be the
-        protocol's task (`sequential.sequential_task`; `sequential.play_sequential` builds such a sim)."""
+        protocol's task (`sequential.sequential_task`; `sequential.play_sequential` builds such a sim).
+
+        max_lost (per episode, default none): stop episode b once more than max_lost[b] of its stages can no
+        longer be done (`SequentialRecords.cut`), for a caller that only needs to know whether it reaches a score."""
         s = settings if settings is not None else sequential.SequentialSettings()
         if self.params != sequential.sequential_task(self.params, s):
             raise ValueError("run_sequential needs the protocol's task: build the sim with "
@@ -365,13 +369,16 @@ class BatchSim:
         except ValueError:
             can_place = False
         B, R = self.n_episodes, self.n_robots
+        limit = np.full(B, 3 * R, dtype=np.int64)
+        if max_lost is not None:
+            limit[:] = np.asarray(max_lost)
         n_hidden = ctrl.w_hh.shape[-1]
         nets = (*transposed(ctrl), np.zeros((B, R, n_hidden), dtype=np.float32),
                 np.zeros((B, R, 3), dtype=np.float32), np.zeros((B, R), dtype=np.int64), ctrl.decision == "net_input")
         out = sequential.SequentialRecords(np.zeros((B, R, 4), dtype=np.int64), np.zeros((B, R, 4), dtype=np.bool_),
-                                           np.zeros(B, dtype=np.int64))
+                                           np.zeros(B, dtype=np.int64), np.zeros(B, dtype=np.bool_))
         sequential.run_sequential(self._state, self._geometry, self._task(), self._work, nets,
                                   kernels.network_scratch(nets[0], n_hidden), s.vector(),
-                                  np.ascontiguousarray(self.pose[:, :, :2]), can_place, out.records, out.stages,
-                                  out.ticks)
+                                  np.ascontiguousarray(self.pose[:, :, :2]), can_place, limit, out.records,
+                                  out.stages, out.ticks, out.cut)
         return out

@@ -186,14 +186,18 @@ def _tick(b, n, state, arena, task, work, nets, brains, seen, nobs, actions, his
 
 
 @njit(cache=True, error_model="numpy", parallel=True)
-def run_sequential(state, arena, task, work, nets, brains, settings, starts, can_place, records, stages, ticks):
+def run_sequential(state, arena, task, work, nets, brains, settings, starts, can_place, max_lost, records, stages,
+                   ticks, cut):
     """Whole sequential episodes, episode b played by team b, spread over the cores.
 
     `state` must hold the reset state (poses placed, first sensing done) of a task with auto_signal off and
     max_cycles >= settings' max_ticks; `brains` comes from kernels.network_scratch; settings is
     SequentialSettings.vector(); starts (B, R, 2) the start positions; can_place says whether a robot may be
-    placed at home (its pose there clears the walls).  Out: records (B, R, 4) int64 (REC_*), stages (B, R, 4)
-    bool (S_*), ticks (B,) the ticks played.
+    placed at home (its pose there clears the walls); max_lost (B,) int64: episode b stops as soon as more than
+    max_lost[b] of its 3 R stages can no longer be done (3 R: never; a caller that only needs to know whether an
+    episode reaches some score, `mahn_evo`'s pruning of mirror readings, stops it there).  Out: records (B, R, 4)
+    int64 (REC_*), stages (B, R, 4) bool (S_*), ticks (B,) the ticks played, cut (B,) whether the episode was
+    stopped by max_lost (its records and stages are then those of that moment).
 
     The policy's view follows the env protocol exactly: the networks read the observations the last tick
     returned (nobs), so a call or a cleared signal reaches a robot's network one tick later, and a robot placed
@@ -209,8 +213,8 @@ def run_sequential(state, arena, task, work, nets, brains, settings, starts, can
     actions = np.zeros((n_ep, n_robots), dtype=np.int64)
     hist = np.zeros((n_ep, int(settings[4]) + 1, n_robots, 2))
     for b in prange(n_ep):
-        ticks[b] = _episode(b, state, arena, task, work, nets, brains, settings, starts, can_place, records,
-                            stages, seen, nobs, actions, hist, size_9)
+        ticks[b] = _episode(b, state, arena, task, work, nets, brains, settings, starts, can_place, max_lost[b],
+                            records, stages, cut, seen, nobs, actions, hist, size_9)
 
 
 #: phases of a sequential episode (`_episode`): the patrol, a called robot's way home, its way back out, the end
@@ -218,8 +222,8 @@ _PATROL, _RETURN, _OUT, _DONE = 0, 1, 2, 3
 
 
 @njit(cache=True, error_model="numpy")
-def _episode(b, state, arena, task, work, nets, brains, settings, starts, can_place, records, stages, seen, nobs,
-             actions, hist, size_9):
+def _episode(b, state, arena, task, work, nets, brains, settings, starts, can_place, max_lost, records, stages, cut,
+             seen, nobs, actions, hist, size_9):
     """Sequential episode b (see run_sequential); returns the ticks it played.
 
     One loop of ticks whose phase (_PATROL, _RETURN, _OUT) says what the protocol waits for, rather than a loop
@@ -264,6 +268,8 @@ def _episode(b, state, arena, task, work, nets, brains, settings, starts, can_pl
     waited = 0  # ticks of the current phase
     call = -1  # the robot called is order[call] (none during the patrol)
     k = 0
+    lost = 0  # stages that can no longer be done: a post not reached, a call home missed (and so its way out)
+    cut[b] = False
     while phase != _DONE:
         n = _tick(b, n, state, arena, task, work, nets, brains, seen, nobs, actions, hist, size_9, n_brains)
         waited += 1
@@ -289,6 +295,7 @@ def _episode(b, state, arena, task, work, nets, brains, settings, starts, can_pl
                     records[b, r, REC_POST] = post[r]
                     stages[b, r, S_POST] = reached[r]
                     left[r] = records[b, r, REC_LEFT]
+                    lost += 0 if reached[r] else 1
                 call_order(left, order)  # 2. call robots home one at a time, in the order they left
                 next_call = True
         elif phase == _RETURN:
@@ -307,6 +314,7 @@ def _episode(b, state, arena, task, work, nets, brains, settings, starts, can_pl
                     phase = _OUT
                     waited = 0
                 else:
+                    lost += 2
                     next_call = True
         else:  # _OUT: back out at its post
             if stopped(hist[b], n, k, window, stop_distance) and _manhattan(
@@ -314,8 +322,12 @@ def _episode(b, state, arena, task, work, nets, brains, settings, starts, can_pl
                 stages[b, k, S_OUT] = True
                 next_call = True
             elif waited == out_ticks:
+                lost += 1
                 next_call = True
-        if next_call:
+        if lost > max_lost:
+            cut[b] = True
+            phase = _DONE
+        elif next_call:
             call += 1
             if call == n_robots:
                 phase = _DONE
@@ -349,6 +361,8 @@ class SequentialRecords:
     records: np.ndarray  # (B, R, 4) int64
     stages: np.ndarray  # (B, R, 4) bool
     ticks: np.ndarray  # (B,) int64
+    #: (B,) bool: stopped early by run_sequential's max_lost (records and stages as at that moment)
+    cut: np.ndarray
 
     @property
     def stages_completed(self) -> np.ndarray:

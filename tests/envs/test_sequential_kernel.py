@@ -130,3 +130,29 @@ def test_bad_settings_and_a_sim_without_the_protocols_task_are_clear_errors():
         teams = [random_team(s) for s in range(3)]
         sim.run_sequential(TeamControllers(*(np.stack([getattr(t, f) for t in teams])
                                              for f in ("w_ih", "w_hh", "w_ho", "b_h", "b_o"))))
+
+
+def test_max_lost_stops_an_episode_once_it_lost_more_stages_and_changes_nothing_else():
+    """An episode allowed exactly the stages it loses plays as without a limit; allowed one fewer, it stops
+    early (`cut`) with the stages it had done by then, a subset of the full episode's."""
+    from mahn_envs.policies.team_controllers import TeamControllers
+
+    params = task_params("generalization")
+    robust, brittle = Champion.load(ROBUST).controllers, Champion.load(BRITTLE).controllers
+    teams = [robust, brittle] + [random_team(s) for s in range(4)]
+    batch = TeamControllers(*(np.stack([getattr(t, f) for t in teams]) for f in ("w_ih", "w_hh", "w_ho", "b_h", "b_o")))
+    keys = [7] * len(teams)
+    sim = BatchSim("plus", len(teams), sequential_task(params, SequentialSettings()))
+    full = sim.run_sequential(batch, seed=2, episode_keys=keys)
+    lost = 9 - full.stages_completed
+    assert not full.cut.any() and lost.min() == 0 and lost.max() > 1  # a success and a failure in the batch
+    same = sim.run_sequential(batch, seed=2, episode_keys=keys, max_lost=lost)
+    assert not same.cut.any() and np.array_equal(same.records, full.records)
+    assert np.array_equal(same.stages, full.stages) and np.array_equal(same.ticks, full.ticks)
+    for limit in (np.maximum(lost - 1, 0), np.zeros_like(lost)):  # stopped at the last loss, at the first
+        fewer = sim.run_sequential(batch, seed=2, episode_keys=keys, max_lost=limit)
+        assert np.array_equal(fewer.cut, lost > 0) and (fewer.ticks <= full.ticks).all()
+        done, done_full = fewer.stages[:, :, :3], full.stages[:, :, :3]
+        assert not (done & ~done_full).any()  # nothing done that the full episode did not do
+        assert np.array_equal(fewer.records[~fewer.cut], full.records[~fewer.cut])
+    assert (fewer.ticks[lost > 0] < full.ticks[lost > 0]).all()  # a first loss comes before the end

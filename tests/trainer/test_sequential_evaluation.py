@@ -147,3 +147,55 @@ def test_sequential_plain_keeps_the_first_sequential_episodes_of_a_generation_on
     config = plan.train_config("situational", 1)
     assert config.evaluation.sequential_plain == 1 and config.noise_free_evaluation.sequential_plain == 0
     assert "the first 1 on the map itself: `--sequential-plain 1`" in _robust_text(plan.to_dict())
+
+
+@pytest.mark.parametrize("aggregate", ["mean", "min", "quantile"])
+def test_the_best_of_alternatives_is_that_of_every_alternative_scored_with_fewer_sequential_ticks(aggregate,
+                                                                                                 monkeypatch):
+    """`_best_outcomes` (symmetry "best": each genome's best reading) plays a team's other alternatives' sequential
+    episodes only while they can still reach its leader, and stops them once they cannot: the fitness, solved
+    fraction, end positions and choice are those of scoring every alternative in full, with fewer ticks played."""
+    from mahn_envs.core.batch import BatchSim
+    from mahn_envs.policies.team_controllers import TeamControllers
+    from tests.envs.helpers import random_team
+
+    robust, brittle = Champion.load(ROBUST).controllers, Champion.load(BRITTLE).controllers
+    # 5 teams x 3 alternatives (rows a * 5 + i); duplicates across teams and within one team.  In generation 2
+    # the brittle team scores more than the robust one in the training episodes, less with the sequential ones:
+    # team 1's leader (brittle) is not its best; team 4's random alternatives are stopped within an episode
+    alts = [[robust, brittle, brittle, random_team(2), random_team(30)],
+            [random_team(3), random_team(1), random_team(4), random_team(2), random_team(31)],
+            [brittle, robust, random_team(5), random_team(6), random_team(32)]]
+    flat = [t for row in alts for t in row]
+    batch = TeamControllers(*(np.stack([getattr(t, f) for t in flat]) for f in ("w_ih", "w_hh", "w_ho", "b_h", "b_o")))
+    settings = EvaluationSettings(task=NOISY, episodes=2, noise_draws="per_generation", sequential_episodes=2,
+                                  aggregate=aggregate, seed=3)
+    ticks = {"played": 0, "cut": 0}
+    run = BatchSim.run_sequential
+
+    def counted(self, *args, **kw):
+        out = run(self, *args, **kw)
+        ticks["played"] += int(out.ticks.sum())
+        ticks["cut"] += int(out.cut.sum())
+        return out
+
+    monkeypatch.setattr(BatchSim, "run_sequential", counted)
+    fitness, solved, ends = TeamEvaluator(settings).outcomes(batch, generation=2)
+    every = dict(ticks)
+    best = np.argmax(fitness.reshape(3, 5), axis=0)
+    rows = best * 5 + np.arange(5)
+    ticks.update(played=0, cut=0)
+    pruning = TeamEvaluator(settings)
+    f, s, e, b = pruning._best_outcomes(batch, 3, generation=2)
+    assert np.array_equal(b, best) and np.array_equal(f, fitness[rows])
+    training = TeamEvaluator(replace(settings, sequential_episodes=0)).outcomes(batch, generation=2)[0]
+    assert np.argmax(training.reshape(3, 5)[:, 1]) == 0 and b[1] == 2
+    assert np.array_equal(s, solved[rows]) and np.array_equal(e, ends[rows])
+    assert every["cut"] == 0 and ticks["played"] < every["played"]
+    if aggregate == "mean":
+        assert ticks["cut"] > 0  # alternatives stopped within an episode, not only skipped
+    # what the pruning call remembers (`memo`) is exact: every alternative scored again from its memo
+    again = pruning.outcomes(batch, generation=2)
+    assert all(np.array_equal(x, y) for x, y in zip(again, (fitness, solved, ends)))
+    with pytest.raises(ValueError, match="not 4 alternatives"):
+        TeamEvaluator(settings)._best_outcomes(batch, 4)
