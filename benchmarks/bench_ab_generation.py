@@ -91,14 +91,25 @@ with tempfile.TemporaryDirectory() as d:
     shutil.copytree(run_dir, d, dirs_exist_ok=True)
     cfg = EvolutionConfig.from_saved(read_versioned_json(f"{d}/config.json", "config"))
     tr = Trainer(cfg.with_overrides(generations=10**6), d, resume=True)
-    def score(controllers):
-        try:  # the generation picks the episodes of per-generation noise draws, as in the trainer
-            return tr.evaluator.score(controllers, tr.population.generation)
-        except TypeError:  # a revision from before per-generation draws
+    def score(genomes, controllers):
+        # the generation's fitness and solved fractions as the trainer gets them: `evaluate` (with symmetry "best"
+        # every mirror reading of each genome is scored, the best counts), after `decode` timed apart (the
+        # evaluator's decode memo then hands evaluate the same controllers)
+        g = tr.population.generation
+        if hasattr(tr.evaluator, "evaluate"):
+            try:
+                ev = tr.evaluator.evaluate(genomes, g)
+            except TypeError:  # a revision from before per-generation draws
+                ev = tr.evaluator.evaluate(genomes)
+            return ev.fitness, ev.solved
+        try:  # a revision whose evaluator only scored controllers
+            return tr.evaluator.score(controllers, g)
+        except TypeError:
             return tr.evaluator.score(controllers)
     # one untimed generation: loads the compiled code and, as in a running trainer, leaves the previous
     # generation in the evaluator's memos (revisions that have them)
-    tr.population.tell(score(tr.evaluator.decode(tr.population.ask()))[0])
+    first = tr.population.ask()
+    tr.population.tell(score(first, tr.evaluator.decode(first))[0])
     parts = {"decode": [], "evaluate": [], "reproduce": [], "checkpoint": []}
     cpu = []
     digest = hashlib.sha256()
@@ -108,7 +119,7 @@ with tempfile.TemporaryDirectory() as d:
         genomes = tr.population.ask()
         controllers = tr.evaluator.decode(genomes)
         t1 = time.perf_counter()
-        fitness, solved = score(controllers)
+        fitness, solved = score(genomes, controllers)
         t2 = time.perf_counter()
         tr.population.tell(fitness)
         t3 = time.perf_counter()
