@@ -242,7 +242,8 @@ class Trainer:
         seconds = time.perf_counter() - t0
         self.wall += seconds
         # team-episodes: the keyed training episodes, the noise-free variant ones and the sequential-protocol ones
-        # (each of those is longer)
+        # (each of those is longer), for every reading: the nominal budget, also where symmetry "best" stops a
+        # reading's sequential episodes early because it cannot be its genome's best (TeamEvaluator._best_outcomes)
         played = episodes + evaluator.settings.noise_free_variants + evaluator.settings.sequential_episodes
         evaluations = (self.rows[-1][1] if self.rows else 0) + len(genomes) * played * evaluator.readings
         self.rows.append([gen, evaluations, float(ev.fitness[best]), float(ev.fitness.mean()),
