@@ -2,8 +2,10 @@
 README's table, so every number on the page comes from runs.jsonl.
 
   python docs/results/experiment_robot/rows.py collect EXPERIMENT_DIR CHECK_DIR > runs.jsonl
-      one JSON line per finished run: its summary.json (seed, first solution, generations, wall time) and its
-      check (../robot_pilot/pilot_check.py output, CHECK_DIR/situational_sNNN.jsonl, when there is one)
+      one JSON line per finished run: its summary.json (seed, first solution, generations, wall time), its
+      check (../robot_pilot/pilot_check.py output, CHECK_DIR/situational_sNNN.jsonl, when there is one) and the
+      noise-free probes of the checked pick (`mahn-evo probe`, pymunk: which parts of the test map it handles
+      without noise, so a failed transfer test reads as geometry or as noise)
   python docs/results/experiment_robot/rows.py table runs.jsonl
       the markdown table and the counts quoted in the README
 """
@@ -13,8 +15,10 @@ import json
 import sys
 from pathlib import Path
 
+from mahn_evo.evaluation.probes import probe_team
 from mahn_evo.experiment.plan import ExperimentPlan
 from mahn_evo.experiment.table import load_runs
+from mahn_evo.training.champion import Champion
 
 #: a pick is robust by the issue's test when it succeeds in at least this fraction of the 10 noisy sequential
 #: episodes (generalisation noise) on each map
@@ -39,7 +43,10 @@ def collect(experiment_dir: Path, check_dir: Path) -> list[dict]:
         check = check_dir / f"{run}.jsonl"
         if check.exists() and check.read_text().strip():
             row["check"] = json.loads(check.read_text().strip().splitlines()[-1])
+            probes = probe_team(Champion.load(record.folder / row["check"]["pick"]))
             row["check"]["run"] = f"{experiment_dir.name}/runs/{run}"  # no machine's paths in published data
+            row["probes"] = {"passed": sum(p["success"] for p in probes), "of": len(probes),
+                             "failed": [p["name"] for p in probes if not p["success"]]}
         rows.append(row)
     return rows
 
@@ -52,11 +59,20 @@ def emulated(check: dict) -> bool:
     return check["emulator"]["noisy_solved"] >= EMULATOR_PASS
 
 
+def probed(row: dict) -> str:
+    """The noise-free probes the pick passes, and which it fails."""
+    p = row.get("probes")
+    if p is None:
+        return ""
+    failed = f" (fails {', '.join(p['failed'])})" if p["failed"] else ""
+    return f"{p['passed']}/{p['of']}{failed}"
+
+
 def table(rows: list[dict]) -> str:
     lines = ["| seed | first solution | generations (robust from) | pick's validation (plus / variants) | "
              "transfer, generalisation noise (plus / asym) | sequential, robot noise (plus / asym) | "
-             "core, robot noise | emulator |",
-             "|---|---|---|---|---|---|---|---|"]
+             "core, robot noise | emulator | noise-free probes |",
+             "|---|---|---|---|---|---|---|---|---|"]
     for row in sorted(rows, key=lambda r: r["seed"]):
         c = row.get("check")
         first = row["first_solved_generation"]
@@ -64,7 +80,7 @@ def table(rows: list[dict]) -> str:
             else str(row["generations"])
         if c is None:
             lines.append(f"| {row['seed']} | {first if first is not None else 'unsolved'} | {gens} | "
-                         "not checked yet | | | | |")
+                         "not checked yet | | | | | |")
             continue
         t, s = c["transfer"], c["robot_sequential"]
         mark = "**" if robust(c) and emulated(c) else ""
@@ -73,7 +89,7 @@ def table(rows: list[dict]) -> str:
             f"{c['validation_plus']}/10, {c['validation_variants']}/20 | "
             f"{mark}{t['plus']:.1f} / {t['asymmetric_plus']:.1f}{mark} | "
             f"{s['plus']:.1f} / {s['asymmetric_plus']:.1f} | "
-            f"{c['core']['robot_preset']:.2f} | {mark}{c['emulator']['noisy_solved']}/10{mark} |")
+            f"{c['core']['robot_preset']:.2f} | {mark}{c['emulator']['noisy_solved']}/10{mark} | {probed(row)} |")
     checked = [r["check"] for r in rows if "check" in r]
     solved = [r for r in rows if r["first_solved_generation"] is not None]
     lines += ["", f"{len(rows)} runs finished, {len(solved)} solved; of {len(checked)} checked picks "
