@@ -82,8 +82,9 @@ class EvolutionConfig:
     #: "output": the original's winner-take-all on the output sigmoids; "net_input": on their net inputs, so no
     #: decision rests on a float32 saturation tie (see mahn_envs.core.controller.DECISIONS)
     decision: str = "output"
-    #: "none" (the paper) or "mirror": bilateral symmetry by construction, the robots at -z get the mirror image of
-    #: the brains painted at +z (mahn_evo.hyperneat.substrate.SYMMETRIES)
+    #: "none" (the paper), "mirror" (bilateral symmetry by construction: the robots at -z get the mirror image of
+    #: the brains painted at +z) or "best" (each team also scored in both mirror readings, the best counts; see
+    #: mahn_evo.hyperneat.substrate.SYMMETRIES and EvaluationSettings.symmetry)
     symmetry: str = "none"
     #: episodes per team per generation; with noise in `task` (robust evaluation) see TeamEvaluator
     episodes: int = 1
