@@ -68,16 +68,32 @@ def _config(**kw):
     return EvolutionConfig(**base).with_overrides(pop=12).with_noise("generalization")
 
 
-def test_training_with_sequential_episodes_is_deterministic_resumes_and_is_saved(tmp_path):
-    full = train(_config(), tmp_path / "full")
-    part = Trainer(_config(generations=2), tmp_path / "part")
+@pytest.mark.parametrize("symmetry", ["none", "best"])
+def test_training_with_sequential_episodes_is_deterministic_resumes_and_is_saved(tmp_path, symmetry, monkeypatch):
+    """Also with symmetry "best", whose readings stop playing sequential episodes once they cannot be the best."""
+    full = train(_config(symmetry=symmetry), tmp_path / "full")
+    part = Trainer(_config(generations=2, symmetry=symmetry), tmp_path / "part")
     part.run()
-    resumed = train(_config(), tmp_path / "part", resume=True)
+    resumed = train(_config(symmetry=symmetry), tmp_path / "part", resume=True)
     assert resumed["best_fitness"] == full["best_fitness"]
     rows = [[r.split(",")[:8] for r in (tmp_path / run / "log.csv").read_text().splitlines()]
             for run in ("full", "part")]
     assert rows[0] == rows[1] and len(rows[0]) == 4  # header and 3 generations, equal but for the timings
-    assert int(rows[0][-1][1]) == 3 * 12 * 2  # evaluations count the sequential episodes too
+    # evaluations count the sequential episodes too, for every reading (the nominal budget)
+    assert int(rows[0][-1][1]) == 3 * 12 * 2 * (3 if symmetry == "best" else 1)
+    if symmetry == "best":  # the same run as when every reading plays every episode
+        def every_reading(self, batch, k, generation=0):
+            fitness, solved, ends = self.outcomes(batch, generation)
+            n = fitness.shape[0] // k
+            best = np.argmax(fitness.reshape(k, n), axis=0)
+            rows = best * n + np.arange(n)
+            return fitness[rows], solved[rows], ends[rows], best
+
+        monkeypatch.setattr(TeamEvaluator, "_best_outcomes", every_reading)
+        train(_config(symmetry=symmetry), tmp_path / "every")
+        every = [r.split(",")[:8] for r in (tmp_path / "every" / "log.csv").read_text().splitlines()]
+        assert every == rows[0]
+        return
     assert json.loads((tmp_path / "full" / "config.json").read_text())["sequential_episodes"] == 1
     # a robust-phase setting: the noise-free phase of robust_from first_solution does not play them
     cfg = replace(_config(), robust_from="first_solution")
