@@ -371,7 +371,11 @@ class BatchSim:
         B, R = self.n_episodes, self.n_robots
         limit = np.full(B, 3 * R, dtype=np.int64)
         if max_lost is not None:
-            limit[:] = np.asarray(max_lost)
+            given = np.asarray(max_lost)
+            if given.shape != (B,) or given.dtype.kind not in "iu" or (given < 0).any():
+                raise ValueError(f"max_lost must hold one non-negative integer per episode ({B}), got "
+                                 f"{given.tolist()!r}")
+            limit[:] = given
         n_hidden = ctrl.w_hh.shape[-1]
         nets = (*transposed(ctrl), np.zeros((B, R, n_hidden), dtype=np.float32),
                 np.zeros((B, R, 3), dtype=np.float32), np.zeros((B, R), dtype=np.int64), ctrl.decision == "net_input")

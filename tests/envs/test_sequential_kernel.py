@@ -156,3 +156,6 @@ def test_max_lost_stops_an_episode_once_it_lost_more_stages_and_changes_nothing_
         assert not (done & ~done_full).any()  # nothing done that the full episode did not do
         assert np.array_equal(fewer.records[~fewer.cut], full.records[~fewer.cut])
     assert (fewer.ticks[lost > 0] < full.ticks[lost > 0]).all()  # a first loss comes before the end
+    for bad in ([1, 2], lost - 10, lost.astype(float)):
+        with pytest.raises(ValueError, match="max_lost must hold one non-negative integer per episode"):
+            sim.run_sequential(batch, seed=2, episode_keys=keys, max_lost=bad)
