@@ -352,6 +352,9 @@ def _experiment_parser(sub) -> None:
                    help="local processes (default) or a Ray cluster; same results for the same seeds")
     p.add_argument("--address", help="Ray cluster address (default: start a local Ray instance)")
     p.add_argument("--workers", type=int, default=2, help="runs at a time (default %(default)s)")
+    p.add_argument("--only-seeds", type=int, nargs="+", metavar="SEED",
+                   help="run only these of the experiment's seeds (e.g. its runs split across machines, or lost "
+                        "runs redone); each run is the one the whole experiment makes")
     p.add_argument("--no-analysis", action="store_true", help="only run the runs")
     p.add_argument("--report-only", action="store_true",
                    help="start no runs: write the results of the runs finished so far (e.g. while the experiment "
@@ -446,7 +449,7 @@ def cmd_experiment(args) -> int:
         results = run_experiment(plan, args.out, backend=args.backend, workers=args.workers, address=args.address,
                                  analyse=not args.no_analysis, run=not args.report_only,
                                  analysis={k: v for k, v in _analysis_options(args).items() if v is not None},
-                                 log=lambda m: print(m, flush=True))
+                                 log=lambda m: print(m, flush=True), only_seeds=args.only_seeds)
     except KeyboardInterrupt:
         print(f"\ninterrupted; run the same command again to resume ({args.out})", file=sys.stderr)
         return 130
