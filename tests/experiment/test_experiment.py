@@ -196,6 +196,19 @@ def test_interrupted_experiment_resumes_bit_identically(tmp_path):
         assert _rows(f) == _rows(tmp_path / "cut" / "runs" / f.name)
 
 
+def test_an_experiment_split_by_seed_makes_the_runs_of_the_whole(tmp_path):
+    """--only-seeds runs part of an experiment (split across machines, lost runs redone): the same runs."""
+    plan = ExperimentPlan(**{**SMALL, "modes": ("situational",)})
+    run_experiment(plan, tmp_path / "whole", workers=1, analyse=False, log=_quiet)
+    with pytest.raises(ValueError, match=r"--only-seeds must name seeds of the experiment \(5-6\), got \[4, 5\]"):
+        run_experiment(plan, tmp_path / "part", workers=1, analyse=False, log=_quiet, only_seeds=[5, 4])
+    run_experiment(plan, tmp_path / "part", workers=1, analyse=False, log=_quiet, only_seeds=[6])
+    assert [f.name for f in (tmp_path / "part" / "runs").iterdir()] == ["situational_s006"]
+    run_experiment(plan, tmp_path / "part", workers=1, analyse=False, log=_quiet, only_seeds=[5])
+    for _, _, f in plan.tasks(tmp_path / "whole"):
+        assert _rows(f) == _rows(tmp_path / "part" / "runs" / f.name)
+
+
 def test_ray_backend_gives_the_same_runs(tmp_path):
     plan = ExperimentPlan(**{**SMALL, "runs": 1})
     run_experiment(plan, tmp_path / "local", workers=2, analyse=False, log=_quiet)

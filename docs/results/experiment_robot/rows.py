@@ -1,11 +1,13 @@
 """The robot-noise experiment's per-run rows: collected from the run folders and their checks, and printed as the
 README's table, so every number on the page comes from runs.jsonl.
 
-  python docs/results/experiment_robot/rows.py collect EXPERIMENT_DIR CHECK_DIR > runs.jsonl
+  python docs/results/experiment_robot/rows.py collect EXPERIMENT_DIR CHECK_DIR [PUBLISHED] > runs.jsonl
       one JSON line per finished run: its summary.json (seed, first solution, generations, wall time), its
       check (../robot_pilot/pilot_check.py output, CHECK_DIR/situational_sNNN.jsonl, when there is one) and the
       noise-free probes of the checked pick (`mahn-evo probe`, pymunk: which parts of the test map it handles
-      without noise, so a failed transfer test reads as geometry or as noise)
+      without noise, so a failed transfer test reads as geometry or as noise); with PUBLISHED (a runs.jsonl),
+      its rows of runs the folder does not hold finished are kept (run folders lost with a machine, the runs
+      redone elsewhere: the experiment was split with `mahn-evo experiment --only-seeds`)
   python docs/results/experiment_robot/rows.py table runs.jsonl
       the markdown table and the counts quoted in the README
 """
@@ -49,6 +51,17 @@ def collect(experiment_dir: Path, check_dir: Path) -> list[dict]:
                              "failed": [p["name"] for p in probes if not p["success"]]}
         rows.append(row)
     return rows
+
+
+def read_rows(path: Path) -> list[dict]:
+    return [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
+
+
+def merged(published: list[dict], collected: list[dict]) -> list[dict]:
+    """The published rows with the collected ones added, by seed; a run collected again replaces its row."""
+    by_seed = {row["seed"]: row for row in published}
+    by_seed.update({row["seed"]: row for row in collected})
+    return [by_seed[seed] for seed in sorted(by_seed)]
 
 
 def robust(check: dict) -> bool:
@@ -100,13 +113,15 @@ def table(rows: list[dict]) -> str:
 
 
 def main(argv: list[str]) -> int:
-    if len(argv) == 3 and argv[0] == "collect":
-        for row in collect(Path(argv[1]), Path(argv[2])):
+    if len(argv) in (3, 4) and argv[0] == "collect":
+        rows = collect(Path(argv[1]), Path(argv[2]))
+        if len(argv) == 4:
+            rows = merged(read_rows(Path(argv[3])), rows)
+        for row in rows:
             print(json.dumps(row))
         return 0
     if len(argv) == 2 and argv[0] == "table":
-        rows = [json.loads(line) for line in Path(argv[1]).read_text().splitlines() if line.strip()]
-        print(table(rows))
+        print(table(read_rows(Path(argv[1]))))
         return 0
     print(__doc__, file=sys.stderr)
     return 2
