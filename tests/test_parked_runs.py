@@ -1,0 +1,66 @@
+"""docs/results/in_progress/park.py: an experiment parked in the repository and restored elsewhere resumes to the
+runs it would have made, a damaged checkpoint is never parked, and a restore never goes back in generations."""
+from __future__ import annotations
+
+import csv
+import importlib.util
+import json
+from pathlib import Path
+
+import pytest
+
+from mahn_evo.experiment import ExperimentPlan, run_experiment
+from mahn_evo.training.trainer import Trainer
+
+ROOT = Path(__file__).resolve().parents[1]
+SMALL = dict(modes=("situational",), runs=1, seed=3, generations=4, population=16, max_cycles=240, signal_tick=120,
+             general_episodes=3, transfer_episodes=1, top=1, replays=0)
+
+
+@pytest.fixture
+def park(tmp_path, monkeypatch):
+    spec = importlib.util.spec_from_file_location("park", ROOT / "docs" / "results" / "in_progress" / "park.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    monkeypatch.setattr(module, "HERE", tmp_path / "parked")
+    (tmp_path / "parked").mkdir()
+    return module
+
+
+def _rows(run: Path) -> list[list[str]]:
+    with open(run / "log.csv") as f:
+        return [row[:-1] for row in csv.reader(f)]  # without the wall-clock column
+
+
+def _quiet(_msg: str) -> None:
+    pass
+
+
+def test_a_parked_experiment_resumes_elsewhere_to_the_same_runs(park, tmp_path):
+    plan = ExperimentPlan(**SMALL)
+    run_experiment(plan, tmp_path / "straight", workers=1, analyse=False, log=_quiet)
+    plan.save_or_check(tmp_path / "host1")  # a session that stopped after 2 of 4 generations
+    [(_, seed, folder)] = plan.tasks(tmp_path / "host1")
+    t = Trainer(plan.train_config("situational", seed), folder)
+    for _ in range(2):
+        t.step()
+    t._write_log()
+    t._checkpoint()
+    park.park(tmp_path / "host1", "exp")
+    assert not list((tmp_path / "parked" / "exp").rglob(".mahn.lock")) and not list(
+        (tmp_path / "parked" / "exp").rglob("*.png"))
+    assert park.listing() == [{"experiment": "exp", "run": "situational_s003", "generations": 2, "finished": False}]
+    park.restore("exp", tmp_path / "host2")
+    run_experiment(plan, tmp_path / "host2", workers=1, analyse=False, log=_quiet)
+    run = "runs/situational_s003"
+    assert _rows(tmp_path / "host2" / run) == _rows(tmp_path / "straight" / run)
+    with pytest.raises(ValueError, match="at generation 4, its parked copy at 2: restoring would lose generations"):
+        park.restore("exp", tmp_path / "host2")
+    ckpt = tmp_path / "host2" / run / "checkpoint.json"
+    data = json.loads(ckpt.read_text())
+    data["population"]["generation"] = 5  # a changed digit: its digest no longer matches
+    ckpt.write_text(json.dumps(data))
+    with pytest.raises(ValueError, match="checkpoint"):
+        park.park(tmp_path / "host2", "exp")
+    assert park.listing()[0]["generations"] == 2  # the parked copy is untouched
+    assert park.main(["restore", "nothing", str(tmp_path / "x")]) == 1
