@@ -107,9 +107,11 @@ def _count(value: Any, field: str) -> int:
 DECODINGS = (("recursive", True), ("recursive", False), ("relax", True))
 
 
-def _check_controllers_match_cppn(champ: Champion, where: str) -> None:
-    """The stored controllers must be what the CPPN decodes to under one of the run settings that decide decoding
-    (DECODINGS, READINGS), or the file mixes two teams or was edited."""
+def champion_decoding(champ: Champion, where: str = "champion") -> tuple[str, bool, str]:
+    """(CPPN activation, evaluate_modules, mirror reading) under which the champion's CPPN decodes to its stored
+    controllers (the first of DECODINGS x READINGS that does), so its CPPN can be decoded again as its run did
+    (e.g. to polish its weights).  Stored controllers that no decoding gives are a ValueError: the file mixes two
+    teams or was edited."""
     from ..cppn import compile_genome
     from ..hyperneat.substrate import READINGS, decode_population, team_reading
 
@@ -126,6 +128,12 @@ def _check_controllers_match_cppn(champ: Champion, where: str) -> None:
         for reading in READINGS:
             decoded = team_reading(painted, reading).team(0)
             if all(np.array_equal(getattr(decoded, f), getattr(ctrl, f)) for f in CONTROLLER_FIELDS):
-                return
+                return activation, modules, reading
     raise ValueError(f"{where}: field 'controllers' does not match what field 'cppn' decodes to (the file was "
                      "edited, or mixes two teams)")
+
+
+def _check_controllers_match_cppn(champ: Champion, where: str) -> None:
+    """The stored controllers must be what the CPPN decodes to under one of the run settings that decide decoding
+    (DECODINGS, READINGS), or the file mixes two teams or was edited."""
+    champion_decoding(champ, where)
