@@ -438,6 +438,9 @@ def _analysis_options(args) -> dict[str, Any]:
 def cmd_experiment(args) -> int:
     from .experiment.runner import run_experiment
 
+    if args.only_seeds is not None and args.report_only:
+        raise ValueError("--only-seeds says which runs to run; --report-only runs none (it reports on every run "
+                         "finished in the folder)")
     plan = experiment_plan(args)
     import signal
 

@@ -104,3 +104,21 @@ def test_the_robot_experiment_table_is_made_from_its_rows():
     rows = [json.loads(line) for line in (folder / "runs.jsonl").read_text().splitlines() if line.strip()]
     assert rows, "runs.jsonl is empty"
     assert rows_py.table(rows) in (folder / "README.md").read_text()
+
+
+def test_the_robot_experiment_keeps_published_rows_when_collected_again():
+    """rows.py's merge (collect ... PUBLISHED): rows of runs a folder no longer holds stay, a run collected again
+    replaces its row and keeps its published check when it was collected without one."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("experiment_robot_rows",
+                                                  ROOT / "docs" / "results" / "experiment_robot" / "rows.py")
+    rows_py = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(rows_py)
+    published = [{"seed": 1, "run": "situational_s001", "generations": 534, "check": {"pick": "a"}, "probes": {}},
+                 {"seed": 2, "run": "situational_s002", "generations": 437, "check": {"pick": "b"}}]
+    collected = [{"seed": 2, "run": "situational_s002", "generations": 437},
+                 {"seed": 6, "run": "situational_s006", "generations": 702, "check": {"pick": "c"}}]
+    assert rows_py.merged(published, collected) == [
+        published[0], {"seed": 2, "run": "situational_s002", "generations": 437, "check": {"pick": "b"}},
+        collected[1]]

@@ -10,6 +10,7 @@ from pathlib import Path
 import pytest
 
 from mahn_evo.experiment import ExperimentPlan, run_experiment
+from mahn_evo.storage.folder_lock import folder_lock
 from mahn_evo.training.trainer import Trainer
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -50,17 +51,34 @@ def test_a_parked_experiment_resumes_elsewhere_to_the_same_runs(park, tmp_path):
     assert not list((tmp_path / "parked" / "exp").rglob(".mahn.lock")) and not list(
         (tmp_path / "parked" / "exp").rglob("*.png"))
     assert park.listing() == [{"experiment": "exp", "run": "situational_s003", "generations": 2, "finished": False}]
-    park.restore("exp", tmp_path / "host2")
+    park.restore("exp", tmp_path / "host2", log=_quiet)
     run_experiment(plan, tmp_path / "host2", workers=1, analyse=False, log=_quiet)
     run = "runs/situational_s003"
     assert _rows(tmp_path / "host2" / run) == _rows(tmp_path / "straight" / run)
-    with pytest.raises(ValueError, match="at generation 4, its parked copy at 2: restoring would lose generations"):
-        park.restore("exp", tmp_path / "host2")
+    said: list[str] = []
+    park.restore("exp", tmp_path / "host2", log=said.append)  # further along here: left as it is
+    assert said == ["situational_s003: further along here (4 > 2 generations), left as it is"]
+    assert _rows(tmp_path / "host2" / run) == _rows(tmp_path / "straight" / run)
+    park.park(tmp_path / "host2", "exp")
+    said.clear()
+    park.park(tmp_path / "host1", "exp", log=said.append)  # an older copy does not replace a newer parked one
+    assert said == ["situational_s003: the parked copy is further along (4 > 2 generations): kept (--force "
+                    "replaces it)"]
+    assert park.listing()[0]["generations"] == 4
+    park.park(tmp_path / "host1", "exp", force=True)
+    assert park.listing()[0]["generations"] == 2
     ckpt = tmp_path / "host2" / run / "checkpoint.json"
     data = json.loads(ckpt.read_text())
     data["population"]["generation"] = 5  # a changed digit: its digest no longer matches
     ckpt.write_text(json.dumps(data))
     with pytest.raises(ValueError, match="checkpoint"):
-        park.park(tmp_path / "host2", "exp")
+        park.park(tmp_path / "host2", "exp", force=True)
     assert park.listing()[0]["generations"] == 2  # the parked copy is untouched
+    with folder_lock(tmp_path / "host1" / run):  # a run in use is never parked
+        with pytest.raises(ValueError, match=r"\['situational_s003'\] .* are in use"):
+            park.park(tmp_path / "host1", "exp")
+    for bad in ("", "..", "a/b"):
+        with pytest.raises(ValueError, match="name"):
+            park.park(tmp_path / "host1", bad)
+    assert (tmp_path / "parked" / "exp" / run / "checkpoint.json").exists()
     assert park.main(["restore", "nothing", str(tmp_path / "x")]) == 1

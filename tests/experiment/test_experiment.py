@@ -209,6 +209,11 @@ def test_an_experiment_split_by_seed_makes_the_runs_of_the_whole(tmp_path):
         assert _rows(f) == _rows(tmp_path / "part" / "runs" / f.name)
 
 
+def test_only_seeds_with_report_only_is_refused(tmp_path, capsys):
+    assert main(["experiment", "--out", str(tmp_path / "e"), "--only-seeds", "1", "--report-only"]) != 0
+    assert "--report-only runs none" in capsys.readouterr().err
+
+
 def test_ray_backend_gives_the_same_runs(tmp_path):
     plan = ExperimentPlan(**{**SMALL, "runs": 1})
     run_experiment(plan, tmp_path / "local", workers=2, analyse=False, log=_quiet)

@@ -58,10 +58,13 @@ def read_rows(path: Path) -> list[dict]:
 
 
 def merged(published: list[dict], collected: list[dict]) -> list[dict]:
-    """The published rows with the collected ones added, by seed; a run collected again replaces its row."""
-    by_seed = {row["seed"]: row for row in published}
-    by_seed.update({row["seed"]: row for row in collected})
-    return [by_seed[seed] for seed in sorted(by_seed)]
+    """The published rows with the collected ones added, by run; a run collected again replaces its row, keeping
+    the published check (and probes) when it was collected without one."""
+    by_run = {row["run"]: row for row in published}
+    for row in collected:
+        old = by_run.get(row["run"], {})
+        by_run[row["run"]] = {**{k: old[k] for k in ("check", "probes") if k in old and "check" not in row}, **row}
+    return sorted(by_run.values(), key=lambda row: (row["seed"], row["run"]))
 
 
 def robust(check: dict) -> bool:

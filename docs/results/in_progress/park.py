@@ -4,29 +4,34 @@ A session's background runs end with it, and the host's disk may not come back (
 experiments that way). Each session parks the experiments it ran before it stops and restores them at its start;
 runs resume from their checkpoints bit for bit (the trainer's resume is exact, also on another host).
 
-  python docs/results/in_progress/park.py park EXPERIMENT_DIR [NAME]
-      copy the experiment (experiment.json and every run folder's files but locks, pictures and temporary files)
-      to docs/results/in_progress/NAME/ (default: the folder's name), replacing the parked copy; every
-      checkpoint is read back through its digest first, so a damaged file is never parked
+  python docs/results/in_progress/park.py park EXPERIMENT_DIR [NAME] [--force]
+      copy the experiment (experiment.json and each run folder's files but locks, pictures and temporary files)
+      into docs/results/in_progress/NAME/ (default: the folder's name), run by run: a parked run the folder does
+      not hold stays parked, and a parked run further along than the folder's is kept (--force replaces it);
+      every checkpoint copied is read back through its digest, and a run in use (its lock held) is refused
   python docs/results/in_progress/park.py restore NAME EXPERIMENT_DIR
-      copy a parked experiment back; refused when a run there is further along than its parked copy
+      copy a parked experiment back, run by run; a run that is further along here, or in use, is left as it is
   python docs/results/in_progress/park.py list
       each parked experiment's runs: generations, finished or not
 """
 from __future__ import annotations
 
 import json
+import re
 import shutil
 import sys
 from pathlib import Path
 
-from mahn_evo.experiment.plan import ExperimentPlan
+from mahn_evo.experiment.plan import PLAN_FILE, ExperimentPlan
 from mahn_evo.experiment.table import load_runs
 from mahn_evo.storage.files import read_checked_json
+from mahn_evo.storage.folder_lock import lock_holder
 
 HERE = Path(__file__).resolve().parent
 #: what a run writes that a resume does not need or that belongs to one machine
 SKIPPED = (".mahn.lock", "*.png", "*.gif", "*.tmp", ".*.tmp*")
+#: a parked experiment's name: one folder inside HERE, never a path
+NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]*")
 
 
 def generations(run: Path) -> int:
@@ -41,36 +46,67 @@ def runs(experiment: Path) -> list[Path]:
     return sorted(p for p in (experiment / "runs").iterdir() if p.is_dir()) if (experiment / "runs").is_dir() else []
 
 
-def park(experiment: Path, name: str) -> Path:
-    if not (experiment / "experiment.json").exists():
-        raise ValueError(f"{str(experiment)!r} holds no experiment (experiment.json missing)")
-    for run in runs(experiment):
-        generations(run)  # refuses a damaged checkpoint before anything is replaced
-    target = HERE / name
-    staged = HERE / f".{name}.staged"
+def parked_folder(name: str) -> Path:
+    if not NAME.fullmatch(name):
+        raise ValueError(f"a parked experiment's name is letters, digits, '_', '-' and '.', got {name!r}")
+    return HERE / name
+
+
+def _copy_run(run: Path, target: Path) -> None:
+    """Copy a run folder over `target` through a staged copy whose checkpoint is read back first."""
+    staged = target.parent / f".{target.name}.staged"
     shutil.rmtree(staged, ignore_errors=True)
-    shutil.copytree(experiment, staged, ignore=shutil.ignore_patterns(*SKIPPED))
+    shutil.copytree(run, staged, ignore=shutil.ignore_patterns(*SKIPPED))
+    try:
+        generations(staged)
+    except ValueError:
+        shutil.rmtree(staged)
+        raise
     shutil.rmtree(target, ignore_errors=True)
     staged.rename(target)
+
+
+def park(experiment: Path, name: str, force: bool = False, log=print) -> Path:
+    target = parked_folder(name)
+    if not (experiment / PLAN_FILE).exists():
+        raise ValueError(f"{str(experiment)!r} holds no experiment ({PLAN_FILE} missing)")
+    busy = [run.name for run in runs(experiment) if lock_holder(run) is not None]
+    if busy:
+        raise ValueError(f"run(s) {busy} of {str(experiment)!r} are in use: stop the experiment before parking it")
+    (target / "runs").mkdir(parents=True, exist_ok=True)
+    shutil.copy2(experiment / PLAN_FILE, target / PLAN_FILE)
+    for run in runs(experiment):
+        kept = target / "runs" / run.name
+        if kept.exists() and not force and generations(kept) > generations(run):
+            log(f"{run.name}: the parked copy is further along ({generations(kept)} > {generations(run)} "
+                "generations): kept (--force replaces it)")
+            continue
+        _copy_run(run, kept)
     return target
 
 
-def restore(name: str, experiment: Path) -> None:
-    source = HERE / name
-    if not (source / "experiment.json").exists():
+def restore(name: str, experiment: Path, log=print) -> None:
+    source = parked_folder(name)
+    if not (source / PLAN_FILE).exists():
         raise ValueError(f"no parked experiment {name!r} in {HERE}")
+    (experiment / "runs").mkdir(parents=True, exist_ok=True)
+    if not (experiment / PLAN_FILE).exists():
+        shutil.copy2(source / PLAN_FILE, experiment / PLAN_FILE)
     for run in runs(source):
         here = experiment / "runs" / run.name
-        if here.exists() and generations(here) > generations(run):
-            raise ValueError(f"{str(here)!r} is at generation {generations(here)}, its parked copy at "
-                             f"{generations(run)}: restoring would lose generations (park it first)")
-    shutil.copytree(source, experiment, dirs_exist_ok=True)
+        if here.exists() and lock_holder(here) is not None:
+            log(f"{run.name}: in use here, left as it is")
+        elif here.exists() and generations(here) > generations(run):
+            log(f"{run.name}: further along here ({generations(here)} > {generations(run)} generations), left as "
+                "it is")
+        else:
+            _copy_run(run, here)
 
 
 def listing() -> list[dict]:
     """Every parked run, finished or not by its experiment's plan (mahn_evo.experiment.table.load_runs)."""
     out = []
-    for exp in sorted(p for p in HERE.iterdir() if (p / "experiment.json").exists()):
+    for exp in sorted(p for p in HERE.iterdir() if NAME.fullmatch(p.name) and (p / PLAN_FILE).exists()):
         for record in load_runs(ExperimentPlan.load(exp), exp):
             if record.folder.exists():
                 out.append({"experiment": exp.name, "run": record.name, "generations": generations(record.folder),
@@ -79,15 +115,17 @@ def listing() -> list[dict]:
 
 
 def main(argv: list[str]) -> int:
+    force = "--force" in argv
+    argv = [a for a in argv if a != "--force"]
     try:
         if len(argv) in (2, 3) and argv[0] == "park":
             exp = Path(argv[1])
-            print(park(exp, argv[2] if len(argv) == 3 else exp.resolve().name))
+            print(park(exp, argv[2] if len(argv) == 3 else exp.resolve().name, force))
             return 0
-        if len(argv) == 3 and argv[0] == "restore":
+        if len(argv) == 3 and argv[0] == "restore" and not force:
             restore(argv[1], Path(argv[2]))
             return 0
-        if argv == ["list"]:
+        if argv == ["list"] and not force:
             for row in listing():
                 print(json.dumps(row))
             return 0

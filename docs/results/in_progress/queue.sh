@@ -1,17 +1,20 @@
 #!/usr/bin/env bash
 # The project's long experiments in priority order, in two lanes of one core each, every step resumable: a session
-# starts this, stops it before it ends (`kill -TERM -- -PGID`: SIGTERM, since a script's background jobs ignore
-# SIGINT; runs keep their last finished generation), and parks what it ran (park.py park). Parked experiments are restored first (a restore that would go back in generations is
-# refused and the local folder kept).
+# starts this, stops it before it ends (`kill -TERM -- -$(cat RUNS_DIR/queue.pid)`: SIGTERM, since a script's
+# background jobs ignore SIGINT; runs keep their last finished generation), and parks what it ran (park.py park).
+# Parked experiments are restored first, run by run (a run further along here is kept).
 #
-#   setsid nohup bash docs/results/in_progress/queue.sh RUNS_DIR >> RUNS_DIR/queue.out 2>&1 < /dev/null &
+#   mkdir -p RUNS_DIR && setsid nohup bash docs/results/in_progress/queue.sh RUNS_DIR >> RUNS_DIR/queue.out 2>&1 < /dev/null &
 #
 # Runs use the installed mahn, or PYTHONPATH (e.g. a worktree pinned at a commit, so that editing the checkout
-# does not change runs in progress).
+# does not change runs in progress). A step that fails goes on to the lane's next step; a stopped one (SIGTERM,
+# Ctrl-C) ends the lane.
 set -u
 HERE=$(cd "$(dirname "$0")" && pwd)
 RUNS=${1:-runs}
+if [ -d "${PYTHONPATH:-}" ]; then export PYTHONPATH=$(cd "$PYTHONPATH" && pwd); fi  # absolute, before the cd below
 mkdir -p "$RUNS" && cd "$RUNS"
+echo $$ > queue.pid  # the process group to stop: this script leads it (started with setsid)
 for name in rob1000_16 rob1000 robot15; do
   [ -d "$HERE/$name" ] && python "$HERE/park.py" restore "$name" "$name"
 done
@@ -21,27 +24,36 @@ for m in ppo_ff ippo_gru mappo_gru; do  # issue 12's tuning journals (docs/resul
 done
 HARDENED=(--preset hardened-sequential --generations 1000 --after-solved 150 --workers 1 --no-analysis)
 
+step() {  # run one step; 1 (end the lane) only when it was stopped
+  "$@"
+  local rc=$?
+  if [ $rc -eq 130 ] || [ $rc -eq 143 ]; then return 1; fi
+  [ $rc -ne 0 ] && echo "$(date -u) step failed ($rc), going on: $*"
+  return 0
+}
+
 lane_a() {
   # issue 15: the protocol ranking's confirmation on fresh seeds (experiment_hardened_sequential's "Next")
-  python -m mahn_evo.cli experiment --out rob1000_16 --modes situational --runs 15 --seed 16 "${HARDENED[@]}" || return
+  step python -m mahn_evo.cli experiment --out rob1000_16 --modes situational --runs 15 --seed 16 "${HARDENED[@]}" \
+    || return
   # issue 15: experiment_robot's seeds not yet on its page
-  python -m mahn_evo.cli experiment --out robot15 --modes situational --runs 15 --seed 1 --preset hardened-sequential \
-      --noise robot --generations 1000 --after-solved 300 --workers 1 --no-analysis \
+  step python -m mahn_evo.cli experiment --out robot15 --modes situational --runs 15 --seed 1 \
+      --preset hardened-sequential --noise robot --generations 1000 --after-solved 300 --workers 1 --no-analysis \
       --only-seeds 6 7 9 10 12 13 14 15 || return
 }
 
 lane_b() {
   # issue 15: the standard mode of the hardened experiment (the robust table's 15 + 15)
-  python -m mahn_evo.cli experiment --out rob1000 --modes standard --runs 15 --seed 1 "${HARDENED[@]}" || return
+  step python -m mahn_evo.cli experiment --out rob1000 --modes standard --runs 15 --seed 1 "${HARDENED[@]}" || return
   # issue 12: tuning, then the final runs (docs/baselines.md, "What remains to run")
   for m in ppo_ff ippo_gru mappo_gru; do
-    python -m baselines tune --method $m --trials 25 --steps 2e7 --out fair/tune_$m --threads 1 || return
+    step python -m baselines tune --method $m --trials 25 --steps 2e7 --out fair/tune_$m --threads 1 || return
   done
   for s in 0 1 2 3 4; do
-    python -m baselines lean --method ppo_ff --steps 2e8 --seed $s --out fair/ppo_ff_seed$s --resume \
+    step python -m baselines lean --method ppo_ff --steps 2e8 --seed $s --out fair/ppo_ff_seed$s --resume \
         --hyperparams "$(cat fair/tune_ppo_ff/best.json)" --threads 1 || return
     for m in ippo_gru mappo_gru; do
-      python -m baselines lean --method $m --steps 1e8 --seed $s --out fair/${m}_seed$s --resume \
+      step python -m baselines lean --method $m --steps 1e8 --seed $s --out fair/${m}_seed$s --resume \
           --hyperparams "$(cat fair/tune_$m/best.json)" --threads 1 || return
     done
   done

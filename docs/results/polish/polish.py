@@ -31,6 +31,8 @@ from mahn_envs.core.sequential import SequentialSettings, sequential_task
 from mahn_envs.policies.team_controllers import TeamControllers
 from mahn_evo.cppn import compile_genome
 from mahn_evo.evaluation.task_setup import task_params
+from mahn_evo.experiment.plan import ExperimentPlan
+from mahn_evo.experiment.transfer import TRANSFER_MAPS, transfer_tests
 from mahn_evo.hyperneat.substrate import decode_population, team_reading
 from mahn_evo.hyperneat.team_evaluator import EvaluationSettings, TeamEvaluator
 from mahn_evo.neat.genome import Genome
@@ -50,8 +52,9 @@ class PolishSettings:
 
     generations: int = 60
     popsize: int = 16
-    #: CMA-ES's initial step size, in CPPN weight units (NEAT's weights lie in [-1.5, 1.5])
-    sigma: float = 0.1
+    #: CMA-ES's initial step size, in CPPN weight units (NEAT's weights lie in [-1.5, 1.5]; a solved team's
+    #: behaviour survives changes of about 1e-4 and breaks at 1e-3: README.md)
+    sigma: float = 3e-4
     seed: int = 1
     #: the task noise the episodes are played under (a NOISE_PRESETS name)
     noise: str = "generalization"
@@ -113,7 +116,7 @@ class _Decoder:
     def teams(self, weights: list[np.ndarray]) -> TeamControllers:
         plans = [compile_genome(self.genome(w), self.activation, self.modules) for w in weights]
         painted = decode_population(plans, self.champ.mode, self.champ.controllers.n_robots)
-        return team_reading(painted, self.reading)
+        return team_reading(painted, self.reading).with_decision(self.champ.controllers.decision)
 
 
 def _validate(evaluator: TeamEvaluator, teams: TeamControllers, generations: int) -> np.ndarray:
@@ -178,6 +181,14 @@ def sequential_successes(champ: Champion, episodes: int = 200, noise: str = "gen
     return out
 
 
+def issue_test(champ: Champion) -> dict[str, float]:
+    """The issue's transfer test: 10 noisy sequential pymunk episodes per map, generalisation noise (the
+    experiments' `transfer_tests`, with the plan of docs/results/experiment_hardened_sequential/)."""
+    plan = ExperimentPlan.load(Path(__file__).resolve().parents[1] / "experiment_hardened_sequential")
+    tests = transfer_tests(champ, plan)
+    return {m: tests[m]["sequential_noisy"]["success_fraction"] for m in TRANSFER_MAPS}
+
+
 def polish_to_folder(champion_file: str | Path, out: str | Path, settings: PolishSettings = PolishSettings(),
                      log: Callable[[str], None] | None = None) -> PolishResult:
     """Polish a champion file; write out/champion.json (the kept team, a champion file like any other: its fitness
@@ -195,7 +206,8 @@ def polish_to_folder(champion_file: str | Path, out: str | Path, settings: Polis
         "noise_free": {"fitness": result.champion.fitness, "solved": result.champion.solved},
         "finalists": result.finalists, "seconds": round(result.seconds, 1),
         "sequential_successes": {"original": sequential_successes(champ),
-                                 "polished": sequential_successes(result.champion)}}))
+                                 "polished": sequential_successes(result.champion)},
+        "issue_test": {"original": issue_test(champ), "polished": issue_test(result.champion)}}))
     return result
 
 
@@ -205,7 +217,7 @@ def main(argv: list[str]) -> int:
         print(main.__doc__, file=sys.stderr)
         return 2
     settings = PolishSettings(generations=int(argv[2]) if len(argv) > 2 else 60,
-                              sigma=float(argv[3]) if len(argv) > 3 else 3e-4)
+                              sigma=float(argv[3]) if len(argv) > 3 else PolishSettings.sigma)
     result = polish_to_folder(argv[0], argv[1], settings, log=print)
     print(f"validation: original {result.original:.2f}, kept ({result.chosen}) {result.polished:.2f}")
     print((Path(argv[1]) / "summary.json").read_text())

@@ -18,6 +18,7 @@ from mahn_envs.core import BatchSim
 from mahn_envs.policies.team_controllers import _FIELDS, TeamControllers
 from mahn_evo.cppn import compile_genome
 from mahn_evo.hyperneat.substrate import decode_population, team_reading
+from mahn_evo.neat.settings import MutationSettings
 from mahn_evo.training.champion import Champion, champion_decoding
 
 SIZES = (1e-5, 1e-4, 1e-3, 3e-3, 1e-2)
@@ -33,11 +34,12 @@ def perturbed_substrate(c: TeamControllers, which: str, size: float, rng: np.ran
 
 def perturbed_cppn(champ: Champion, size: float, rng: np.random.Generator) -> TeamControllers:
     activation, modules, reading = champion_decoding(champ)
-    limit = 1.5  # NEAT's weight limit
+    limit = MutationSettings().weight_limit
     plans = [compile_genome(champ.genome.with_weights(np.clip(
         champ.genome.weight + size * rng.standard_normal(len(champ.genome.weight)), -limit, limit)),
         activation, modules) for _ in range(COPIES)]
-    return team_reading(decode_population(plans, champ.mode, champ.controllers.n_robots), reading)
+    return team_reading(decode_population(plans, champ.mode, champ.controllers.n_robots), reading).with_decision(
+        champ.controllers.decision)
 
 
 def main(argv: list[str]) -> int:
