@@ -122,3 +122,17 @@ def test_the_robot_experiment_keeps_published_rows_when_collected_again():
     assert rows_py.merged(published, collected) == [
         published[0], {"seed": 2, "run": "situational_s002", "generations": 437, "check": {"pick": "b"}},
         collected[1]]
+
+
+def test_the_robot_experiment_ranking_is_made_from_its_rows_and_picks():
+    """docs/results/experiment_robot/README.md quotes rows.py's ranking of the published picks, word for word."""
+    import importlib.util
+    import json
+
+    folder = ROOT / "docs" / "results" / "experiment_robot"
+    spec = importlib.util.spec_from_file_location("experiment_robot_rows", folder / "rows.py")
+    rows_py = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(rows_py)
+    rows = [json.loads(line) for line in (folder / "runs.jsonl").read_text().splitlines() if line.strip()]
+    table = rows_py.ranking_table(rows_py.ranking(rows, folder / "champions"), len(rows))
+    assert table in (folder / "README.md").read_text()

@@ -10,6 +10,11 @@ README's table, so every number on the page comes from runs.jsonl.
       redone elsewhere: the experiment was split with `mahn-evo experiment --only-seeds`)
   python docs/results/experiment_robot/rows.py table runs.jsonl
       the markdown table and the counts quoted in the README
+  python docs/results/experiment_robot/rows.py ranking runs.jsonl CHAMPIONS_DIR
+      the five most general picks as the project's selection ranks them (`--general-rank protocol`: the pick's
+      noisy sequential successes in its final validation, on plus and on the run's variants, then the paper's
+      generalisation test of the pick: 25 noisy training episodes on plus), from the published rows and picks, so
+      the experiment's report needs no run folder; and how many of them pass the issue's test
 """
 from __future__ import annotations
 
@@ -17,7 +22,10 @@ import json
 import sys
 from pathlib import Path
 
+from mahn_envs.policies.team_controllers import TeamControllers
+from mahn_evo.evaluation.generalize import keyed_episodes
 from mahn_evo.evaluation.probes import probe_team
+from mahn_evo.evaluation.task_setup import task_params
 from mahn_evo.experiment.plan import ExperimentPlan
 from mahn_evo.experiment.table import load_runs
 from mahn_evo.training.champion import Champion
@@ -115,6 +123,41 @@ def table(rows: list[dict]) -> str:
     return "\n".join(lines)
 
 
+def ranking(rows: list[dict], champions: Path, top: int = 5, episodes: int = 25, seed: int = 1) -> list[dict]:
+    """The checked picks ranked as `mahn_evo.experiment.transfer.most_general` ranks them with general_rank
+    "protocol" (its generalisation test: the same keyed episodes for every pick, the plan's seed), best first."""
+    entries = []
+    for row in rows:
+        c = row.get("check")
+        if c is None or c.get("pick") is None:
+            continue
+        champ = Champion.load(champions / f"{row['run']}.json")
+        fit, solved = keyed_episodes(TeamControllers.stack([champ.controllers]), "plus",
+                                     champ.task(task_params("generalization")), seed, range(episodes))
+        entries.append({"seed": row["seed"], "run": row["run"],
+                        "protocol": c["validation_plus"] + c["validation_variants"],
+                        "general_solved": float(solved.mean()), "general_fitness": float(fit.mean()), "check": c})
+    entries.sort(key=lambda e: (-e["protocol"], -e["general_solved"], -e["general_fitness"], e["run"]))
+    return entries[:top]
+
+
+def ranking_table(entries: list[dict], finished: int) -> str:
+    lines = ["| rank | seed | validation successes (of 30) | generalisation (solved, mean fitness) | "
+             "transfer, generalisation noise (plus / asym) | emulator |", "|---|---|---|---|---|---|"]
+    for rank, e in enumerate(entries, 1):
+        c = e["check"]
+        t = c["transfer"]
+        mark = "**" if robust(c) else ""
+        lines.append(f"| {rank} | {e['seed']} | {e['protocol']} | {e['general_solved']:.2f}, "
+                     f"{e['general_fitness']:.1f} | {mark}{t['plus']:.1f} / {t['asymmetric_plus']:.1f}{mark} | "
+                     f"{c['emulator']['noisy_solved']}/10 |")
+    lines += ["", f"Of the {len(entries)} most general picks of {finished} finished runs, "
+              f"{sum(robust(e['check']) for e in entries)} pass the issue's test (>= {ROBUST:.0%} of 10 noisy "
+              f"sequential episodes on both maps; target: 4 of 5), {sum(emulated(e['check']) for e in entries)} "
+              f"the emulator."]
+    return "\n".join(lines)
+
+
 def main(argv: list[str]) -> int:
     if len(argv) in (3, 4) and argv[0] == "collect":
         rows = collect(Path(argv[1]), Path(argv[2]))
@@ -122,6 +165,10 @@ def main(argv: list[str]) -> int:
             rows = merged(read_rows(Path(argv[3])), rows)
         for row in rows:
             print(json.dumps(row))
+        return 0
+    if len(argv) == 3 and argv[0] == "ranking":
+        rows = read_rows(Path(argv[1]))
+        print(ranking_table(ranking(rows, Path(argv[2])), len(rows)))
         return 0
     if len(argv) == 2 and argv[0] == "table":
         print(table(read_rows(Path(argv[1]))))
