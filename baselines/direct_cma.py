@@ -48,8 +48,9 @@ import numpy as np
 
 from mahn_envs.core.params import TaskParams
 from mahn_envs.policies.team_controllers import TeamControllers
+from mahn_evo.hyperneat.evaluation_settings import EvaluationSettings
 from mahn_evo.hyperneat.substrate import MODES, WEIGHT_RANGE, query_layout
-from mahn_evo.hyperneat.team_evaluator import EvaluationSettings, TeamEvaluator
+from mahn_evo.hyperneat.team_evaluator import TeamEvaluator
 from mahn_evo.storage.files import atomic_write_csv, atomic_write_json, read_versioned_json, versioned
 
 from .io import new_run_folder

@@ -47,8 +47,9 @@ import numpy as np
 
 from mahn_envs.core.params import TaskParams
 from mahn_envs.policies.team_controllers import N_HIDDEN, N_OUTPUTS, TeamControllers
+from mahn_evo.hyperneat.evaluation_settings import EvaluationSettings
 from mahn_evo.hyperneat.substrate import MODES, WEIGHT_RANGE
-from mahn_evo.hyperneat.team_evaluator import EvaluationSettings, TeamEvaluator
+from mahn_evo.hyperneat.team_evaluator import TeamEvaluator
 from mahn_evo.neat import Genome, InnovationTracker, NeatSettings, NodeGene, Population
 from mahn_evo.storage.files import (
     atomic_write_checked_json,

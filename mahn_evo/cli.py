@@ -14,8 +14,8 @@ from mahn_envs.maps.variants import BRANCH_SIDES
 
 from .cppn import CPPN_ACTIVATIONS
 from .evaluation.task_setup import NOISE_PRESETS, TEST_NOISES
+from .hyperneat.evaluation_settings import AGGREGATES, NOISE_DRAWS
 from .hyperneat.substrate import MODES, SYMMETRIES
-from .hyperneat.team_evaluator import AGGREGATES, NOISE_DRAWS
 from .training.config import INITS, REFLEX_ARC_FROM, ROBUST_FROM, EvolutionConfig, load_config_file
 from .training.lifetime import FITNESS_MEMORY
 from .training.presets import PRESETS, apply_preset

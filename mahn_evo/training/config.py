@@ -19,7 +19,7 @@ from mahn_envs.jsonfile import read_text_file
 from mahn_envs.maps.variants import check_branch
 
 from ..evaluation.task_setup import NOISE_PRESETS
-from ..hyperneat.team_evaluator import EvaluationSettings
+from ..hyperneat.evaluation_settings import EvaluationSettings
 from ..neat.settings import NeatSettings
 from .lifetime import FITNESS_MEMORY
 

@@ -3,7 +3,8 @@ import numpy as np
 
 from mahn_envs.core import TaskParams
 from mahn_envs.policies.team_controllers import TeamControllers
-from mahn_evo.hyperneat.team_evaluator import CONTROLLER_FIELDS, EvaluationSettings, TeamEvaluator, distinct_teams
+from mahn_evo.hyperneat.evaluation_settings import EvaluationSettings
+from mahn_evo.hyperneat.team_evaluator import CONTROLLER_FIELDS, TeamEvaluator, distinct_teams
 from tests.envs.helpers import random_team
 
 

@@ -10,7 +10,8 @@ from mahn_envs.maps import load_map
 from mahn_envs.maps.variants import HIGH, LOW, PLUS_ARM, plus_variant, spread_variant
 from mahn_evo.cli import build_parser, experiment_plan
 from mahn_evo.experiment.report import _robust_text
-from mahn_evo.hyperneat.team_evaluator import EvaluationSettings, TeamEvaluator
+from mahn_evo.hyperneat.evaluation_settings import EvaluationSettings
+from mahn_evo.hyperneat.team_evaluator import TeamEvaluator
 from mahn_evo.training.config import EvolutionConfig
 from mahn_evo.training.presets import apply_preset
 from mahn_evo.training.trainer import Trainer

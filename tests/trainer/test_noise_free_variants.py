@@ -13,7 +13,8 @@ from mahn_envs.maps.variants import spread_variant
 from mahn_envs.policies.team_controllers import TeamControllers
 from mahn_evo.cli import build_parser, experiment_plan
 from mahn_evo.experiment.report import _robust_text
-from mahn_evo.hyperneat.team_evaluator import CLEAN_VARIANT_KEY, EvaluationSettings, TeamEvaluator
+from mahn_evo.hyperneat.evaluation_settings import EvaluationSettings
+from mahn_evo.hyperneat.team_evaluator import CLEAN_VARIANT_KEY, TeamEvaluator
 from mahn_evo.training.champion import Champion
 from mahn_evo.training.config import EvolutionConfig, continues_before_robust_phase
 

@@ -6,7 +6,8 @@ import csv
 import numpy as np
 import pytest
 
-from mahn_evo.hyperneat.team_evaluator import EvaluationSettings, TeamEvaluator
+from mahn_evo.hyperneat.evaluation_settings import EvaluationSettings
+from mahn_evo.hyperneat.team_evaluator import TeamEvaluator
 from mahn_evo.neat import NeatSettings, Population
 from mahn_evo.training.config import EvolutionConfig
 from mahn_evo.training.trainer import Trainer, train

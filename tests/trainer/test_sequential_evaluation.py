@@ -10,10 +10,10 @@ import pytest
 
 from mahn_envs.core.sequential import play_sequential
 from mahn_evo.cli import main
+from mahn_evo.hyperneat.evaluation_settings import EvaluationSettings
 from mahn_evo.hyperneat.team_evaluator import (
     SEQUENTIAL_KEY,
     SEQUENTIAL_SUCCESS_FITNESS,
-    EvaluationSettings,
     TeamEvaluator,
     sequential_fitness,
 )

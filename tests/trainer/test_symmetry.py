@@ -9,8 +9,8 @@ import pytest
 from mahn_evo.cli import build_parser, experiment_plan, main
 from mahn_evo.cppn import compile_genome
 from mahn_evo.experiment.report import _selection_text
+from mahn_evo.hyperneat.evaluation_settings import EvaluationSettings
 from mahn_evo.hyperneat.substrate import decode_population, mirrored_teams
-from mahn_evo.hyperneat.team_evaluator import EvaluationSettings
 from mahn_evo.training.champion import Champion
 from mahn_evo.training.config import EvolutionConfig
 from mahn_evo.training.trainer import Trainer

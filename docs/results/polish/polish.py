@@ -33,8 +33,9 @@ from mahn_evo.cppn import compile_genome
 from mahn_evo.evaluation.task_setup import task_params
 from mahn_evo.experiment.plan import ExperimentPlan
 from mahn_evo.experiment.transfer import TRANSFER_MAPS, transfer_tests
+from mahn_evo.hyperneat.evaluation_settings import EvaluationSettings
 from mahn_evo.hyperneat.substrate import decode_population, team_reading
-from mahn_evo.hyperneat.team_evaluator import EvaluationSettings, TeamEvaluator
+from mahn_evo.hyperneat.team_evaluator import TeamEvaluator
 from mahn_evo.neat.genome import Genome
 from mahn_evo.neat.settings import MutationSettings
 from mahn_evo.storage.files import atomic_write_csv, atomic_write_json, versioned
