@@ -23,6 +23,9 @@ for m in ppo_ff ippo_gru mappo_gru; do  # issue 12's tuning journals (docs/resul
   if [ -f "$kept" ] && [ ! -f "fair/tune_$m/study.jsonl" ]; then mkdir -p "fair/tune_$m" && cp "$kept" "fair/tune_$m/"; fi
 done
 HARDENED=(--preset hardened-sequential --generations 1000 --after-solved 150 --workers 1 --no-analysis)
+# one core per lane: a run left to itself takes every core for its compiled loops, and two such runs on two cores
+# would share them four threads to two
+export NUMBA_NUM_THREADS=1
 
 step() {  # run one step; 1 (end the lane) only when it was stopped
   "$@"
