@@ -92,15 +92,23 @@ def test_architecture_folder_rows_name_every_module_inside():
                 assert f"`{p.name}`" in row, f"{name} row does not mention {p.name}"
 
 
+def _robot_rows_module():
+    """docs/results/experiment_robot/rows.py, loaded as a module (it is a script, not a package module)."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("experiment_robot_rows",
+                                                  ROOT / "docs" / "results" / "experiment_robot" / "rows.py")
+    rows_py = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(rows_py)
+    return rows_py
+
+
 def test_the_robot_experiment_table_is_made_from_its_rows():
     """docs/results/experiment_robot/README.md quotes rows.py's table of runs.jsonl, word for word."""
-    import importlib.util
     import json
 
     folder = ROOT / "docs" / "results" / "experiment_robot"
-    spec = importlib.util.spec_from_file_location("experiment_robot_rows", folder / "rows.py")
-    rows_py = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(rows_py)
+    rows_py = _robot_rows_module()
     rows = [json.loads(line) for line in (folder / "runs.jsonl").read_text().splitlines() if line.strip()]
     assert rows, "runs.jsonl is empty"
     assert rows_py.table(rows) in (folder / "README.md").read_text()
@@ -109,12 +117,8 @@ def test_the_robot_experiment_table_is_made_from_its_rows():
 def test_the_robot_experiment_keeps_published_rows_when_collected_again():
     """rows.py's merge (collect ... PUBLISHED): rows of runs a folder no longer holds stay, a run collected again
     replaces its row and keeps its published check when it was collected without one."""
-    import importlib.util
 
-    spec = importlib.util.spec_from_file_location("experiment_robot_rows",
-                                                  ROOT / "docs" / "results" / "experiment_robot" / "rows.py")
-    rows_py = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(rows_py)
+    rows_py = _robot_rows_module()
     published = [{"seed": 1, "run": "situational_s001", "generations": 534, "check": {"pick": "a"}, "probes": {}},
                  {"seed": 2, "run": "situational_s002", "generations": 437, "check": {"pick": "b"}}]
     collected = [{"seed": 2, "run": "situational_s002", "generations": 437},
@@ -126,13 +130,10 @@ def test_the_robot_experiment_keeps_published_rows_when_collected_again():
 
 def test_the_robot_experiment_ranking_is_made_from_its_rows_and_picks():
     """docs/results/experiment_robot/README.md quotes rows.py's ranking of the published picks, word for word."""
-    import importlib.util
     import json
 
     folder = ROOT / "docs" / "results" / "experiment_robot"
-    spec = importlib.util.spec_from_file_location("experiment_robot_rows", folder / "rows.py")
-    rows_py = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(rows_py)
+    rows_py = _robot_rows_module()
     rows = [json.loads(line) for line in (folder / "runs.jsonl").read_text().splitlines() if line.strip()]
     table = rows_py.ranking_table(rows_py.ranking(rows, folder / "champions"), len(rows))
     assert table in (folder / "README.md").read_text()
