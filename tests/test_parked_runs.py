@@ -82,3 +82,34 @@ def test_a_parked_experiment_resumes_elsewhere_to_the_same_runs(park, tmp_path):
             park.park(tmp_path / "host1", bad)
     assert (tmp_path / "parked" / "exp" / run / "checkpoint.json").exists()
     assert park.main(["restore", "nothing", str(tmp_path / "x")]) == 1
+
+
+def _queue_commands() -> list[tuple[str, list[str]]]:
+    """(program, arguments) of every step of queue.sh, its continuation lines joined, HARDENED and the loop
+    variables filled in."""
+    import re
+    import shlex
+
+    text = (ROOT / "docs" / "results" / "in_progress" / "queue.sh").read_text().replace("\\\n", " ")
+    hardened = shlex.split(re.search(r"HARDENED=\((.*)\)", text).group(1))
+    out = []
+    for line in text.splitlines():
+        m = re.match(r"\s*step python -m (mahn_evo\.cli|baselines) (.*?)( \|\| return)?$", line)
+        if m:
+            args = m.group(2).replace('"${HARDENED[@]}"', " ".join(hardened))
+            args = re.sub(r'"\$\(cat [^)]*\)"', "{}", args).replace("$m", "ppo_ff").replace("${m}", "ppo_ff")
+            out.append((m.group(1), shlex.split(args.replace("$s", "0"))))
+    return out
+
+
+def test_every_step_of_the_queue_is_a_command_the_clis_accept():
+    """A step that fails goes on to the next (queue.sh): a step the CLI no longer accepts would be skipped
+    silently in the background, so every step must parse."""
+    from baselines.cli import build_parser as baselines_parser
+    from mahn_evo.cli import build_parser as evo_parser
+
+    steps = _queue_commands()
+    assert [p for p, _ in steps].count("mahn_evo.cli") == 3 and [p for p, _ in steps].count("baselines") == 3
+    for program, args in steps:
+        parser = evo_parser() if program == "mahn_evo.cli" else baselines_parser()
+        parser.parse_args(args)  # SystemExit on an unknown option or a bad value
