@@ -1,13 +1,14 @@
 """The robot-noise experiment's per-run rows: collected from the run folders and their checks, and printed as the
 README's table, so every number on the page comes from runs.jsonl.
 
-  python docs/results/experiment_robot/rows.py collect EXPERIMENT_DIR CHECK_DIR [PUBLISHED] > runs.jsonl
+  python docs/results/experiment_robot/rows.py collect EXPERIMENT_DIR CHECK_DIR [PUBLISHED] > NEW_RUNS.jsonl
       one JSON line per finished run: its summary.json (seed, first solution, generations, wall time), its
       check (../robot_pilot/pilot_check.py output, CHECK_DIR/situational_sNNN.jsonl, when there is one) and the
       noise-free probes of the checked pick (`mahn-evo probe`, pymunk: which parts of the test map it handles
       without noise, so a failed transfer test reads as geometry or as noise); with PUBLISHED (a runs.jsonl),
       its rows of runs the folder does not hold finished are kept (run folders lost with a machine, the runs
-      redone elsewhere: the experiment was split with `mahn-evo experiment --only-seeds`)
+      redone elsewhere: the experiment was split with `mahn-evo experiment --only-seeds`); write to another file
+      and move it over PUBLISHED (the shell empties a redirect's target before the script reads it)
   python docs/results/experiment_robot/rows.py table runs.jsonl
       the markdown table and the counts quoted in the README
   python docs/results/experiment_robot/rows.py ranking runs.jsonl CHAMPIONS_DIR
