@@ -43,6 +43,14 @@ lane_a() {
   step python -m mahn_evo.cli experiment --out robot15 --modes situational --runs 15 --seed 1 \
       --preset hardened-sequential --noise robot --generations 1000 --after-solved 300 --workers 1 --no-analysis \
       --only-seeds 6 7 9 10 12 13 14 15 || return
+  # and each of its finished runs checked (the page's pilot_check.py; kept in the experiment folder, so parked)
+  mkdir -p robot15/checks
+  for run in robot15/runs/situational_s*; do
+    name=$(basename "$run")
+    [ -f "$run/summary.json" ] && [ ! -s "robot15/checks/$name.jsonl" ] || continue
+    step python "$HERE/../robot_pilot/pilot_check.py" "$HERE/../experiment_hardened_sequential" "$run" \
+        > "robot15/checks/$name.jsonl.tmp" && mv "robot15/checks/$name.jsonl.tmp" "robot15/checks/$name.jsonl" || return
+  done
 }
 
 lane_b() {
