@@ -52,7 +52,7 @@ def evaluate_run(run_dir: str | Path, maps: Sequence[str] = EVAL_MAPS,
                                             deterministic=not stochastic, seed=seed)
         task_params = lean_cfg.task_params
         results: dict[str, Any] = {"run": str(run_dir), "algo": lean_cfg.method, "seed": lean_cfg.seed,
-                                   "model": "best_actor.pt" if which == "best" else "last checkpoint",
+                                   "model": "best_actor.npz" if which == "best" else "last checkpoint",
                                    "deterministic": not stochastic, "episodes": episodes, "eval_seed": seed,
                                    "recurrent": lean_cfg.recurrent, "protocols": {}}
     else:

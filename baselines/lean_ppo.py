@@ -13,8 +13,9 @@ it with backpropagation through all its ticks.
 Run folder (resumable: `train(..., resume=True)` continues bit-identically):
   config.json            the settings (`algo` = the method, as `baselines.compare` reads it)
   checkpoint.json        versioned: update count, steps, numpy generator state, logs, best; names its weights
-  checkpoint_uNNNNNN.pt  torch tensors only (state_dicts of actor, critic, optimizer), loaded weights_only
-  best_actor.pt          the actor with the best greedy training-map fitness so far (+ best.json)
+  checkpoint_uNNNNNN.npz the state dicts of actor, critic and optimiser as plain arrays (weights_npz.py: no pickle;
+                         runs written before it have checkpoint_uNNNNNN.pt, still read, tensors only)
+  best_actor.npz         the actor with the best greedy training-map fitness so far (+ best.json)
   eval_log.csv           greedy team fitness / solved on every eval map (the comparison curves)
   train_log.csv          per update: training-episode fitness, losses, entropy, KL, robot-steps/s
   summary.json           at the end
@@ -22,8 +23,7 @@ Run folder (resumable: `train(..., resume=True)` continues bit-identically):
 from __future__ import annotations
 
 import math
-import os
-import pickle  # only for its exception type: weights are loaded with weights_only=True
+import pickle  # only for its exception type: legacy torch weights are loaded with weights_only=True
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -40,6 +40,7 @@ from .lean_config import STOPPING_RULES, LeanConfig
 from .lean_nets import GRUNet, LeanTeamPolicy, build_networks, sample_actions, stack_frames
 from .protocols import run_protocol
 from .vec_env import PatrolReturnVecEnv
+from .weights_npz import load_weights, save_weights
 
 TRAIN_FIELDS = ("update", "steps", "wall_time", "cpu_seconds", "fitness_mean", "fitness_max", "solved_rate",
                 "policy_loss", "value_loss", "entropy", "approx_kl", "clip_fraction", "robot_steps_per_second")
@@ -155,11 +156,9 @@ class LeanPPO:
         return self.update * self.steps_per_update
 
     def _checkpoint(self) -> None:
-        name = f"checkpoint_u{self.update:06d}.pt"
-        tmp = self.out / f".{name}.tmp"
-        torch.save({"actor": self.actor.state_dict(), "critic": self.critic.state_dict(),
-                    "optim": self.optim.state_dict()}, tmp)
-        os.replace(tmp, self.out / name)
+        name = f"checkpoint_u{self.update:06d}.npz"
+        save_weights(self.out / name, {"actor": self.actor.state_dict(), "critic": self.critic.state_dict()},
+                     self.optim.state_dict())
         state = {"config": self.cfg.to_dict(), "update": self.update, "steps": self.steps, "weights": name,
                  "rng": self.rng.bit_generator.state, "value_norm": self.value_norm.state(),
                  "wall_seconds": self.wall,
@@ -181,11 +180,11 @@ class LeanPPO:
                              f"{list(STOPPING_RULES)} may change")
         path = self.out / data["weights"]
         try:
-            weights = torch.load(path, weights_only=True)
+            weights = _read_weights(path)
             self.actor.load_state_dict(weights["actor"])
             self.critic.load_state_dict(weights["critic"])
             self.optim.load_state_dict(weights["optim"])
-        except (OSError, RuntimeError, KeyError, EOFError, pickle.UnpicklingError) as exc:
+        except (ValueError, RuntimeError, KeyError) as exc:
             raise ValueError(f"checkpoint weights {str(path)!r} are missing or damaged ({exc})") from exc
         try:
             self.weights_file = data["weights"]
@@ -381,9 +380,7 @@ class LeanPPO:
         key = f"fitness_{self.cfg.map}"
         if key in row and row[key] > self.best:
             self.best = float(row[key])
-            tmp = self.out / ".best_actor.pt.tmp"
-            torch.save(self.actor.state_dict(), tmp)
-            os.replace(tmp, self.out / "best_actor.pt")
+            save_weights(self.out / "best_actor.npz", {"actor": self.actor.state_dict()})
             atomic_write_json(self.out / "best.json", versioned("lean_best", {
                 "method": self.cfg.method, "update": self.update, "steps": self.steps, "evaluation": row}))
         return row
@@ -446,23 +443,34 @@ class LeanPPO:
 
 
 def load_actor(run_dir: str | Path, which: str = "best") -> tuple[LeanConfig, nn.Module]:
-    """The actor of a run (`best`: best_actor.pt, `final`: the last checkpoint's), loaded weights_only."""
+    """The actor of a run (`best`: best_actor.npz, `final`: the last checkpoint's)."""
     run_dir = Path(run_dir)
     data = read_versioned_json(run_dir / "config.json", "lean_config")
     cfg = LeanConfig.from_dict(data)
     env = PatrolReturnVecEnv(1, map=cfg.map, params=cfg.task_params)
     actor, _ = build_networks(cfg, env.n_robots, env.global_state_size)
     if which == "best":
-        path = run_dir / "best_actor.pt"
-        state = torch.load(path, weights_only=True)
+        path = run_dir / "best_actor.npz"
+        if not path.exists() and (run_dir / "best_actor.pt").exists():
+            path = run_dir / "best_actor.pt"  # a run written before the NPZ format
     elif which == "final":
-        ck = read_versioned_json(run_dir / "checkpoint.json", "lean_checkpoint")
-        path = run_dir / ck["weights"]
-        state = torch.load(path, weights_only=True)["actor"]
+        path = run_dir / read_versioned_json(run_dir / "checkpoint.json", "lean_checkpoint")["weights"]
     else:
         raise ValueError(f"which must be 'best' or 'final', got {which!r}")
-    actor.load_state_dict(state)
+    actor.load_state_dict(_read_weights(path)["actor"])
     return cfg, actor
+
+
+def _read_weights(path: Path) -> dict[str, Any]:
+    """`load_weights`, or for a run written before the NPZ format, its torch file (tensors only: weights_only;
+    a best-actor file held the actor's state dict alone)."""
+    if path.suffix != ".pt":
+        return load_weights(path)
+    try:
+        state = torch.load(path, weights_only=True)
+    except (OSError, RuntimeError, EOFError, pickle.UnpicklingError) as exc:
+        raise ValueError(f"weights file {str(path)!r} is missing or damaged ({exc})") from exc
+    return state if "actor" in state else {"actor": state}
 
 
 def train(cfg: LeanConfig, out: str | Path, resume: bool = False,

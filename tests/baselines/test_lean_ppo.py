@@ -11,6 +11,7 @@ torch = pytest.importorskip("torch")
 from baselines.lean_config import LeanConfig  # noqa: E402
 from baselines.lean_nets import GRUNet, LeanTeamPolicy, stack_frames  # noqa: E402
 from baselines.lean_ppo import LeanPPO, gae, load_actor, train  # noqa: E402
+from baselines.weights_npz import load_weights  # noqa: E402
 from mahn_envs.core.batch import BatchSim  # noqa: E402
 from mahn_envs.core.params import TaskParams  # noqa: E402
 
@@ -111,12 +112,17 @@ def test_resume_continues_bit_identically(tmp_path, method):
     def strip(rows):
         return [{k: v for k, v in r.items() if k not in timing} for r in rows]
     assert strip(a["train_rows"]) == strip(b["train_rows"])
-    wa = torch.load(tmp_path / "straight" / a["weights"], weights_only=True)
-    wb = torch.load(tmp_path / "resumed" / b["weights"], weights_only=True)
+    wa = load_weights(tmp_path / "straight" / a["weights"])
+    wb = load_weights(tmp_path / "resumed" / b["weights"])
     for part in ("actor", "critic"):
         for k in wa[part]:
             assert torch.equal(wa[part][k], wb[part][k]), (part, k)
-    assert len(list((tmp_path / "resumed").glob("checkpoint_u*.pt"))) == 1  # old weights removed
+    for index, state in wa["optim"]["state"].items():  # Adam's moments and step counts too
+        for k, value in state.items():
+            assert torch.equal(value, wb["optim"]["state"][index][k]), ("optim", index, k)
+    assert len(list((tmp_path / "resumed").glob("checkpoint_u*.npz"))) == 1  # old weights removed
+    with np.load(tmp_path / "resumed" / b["weights"], allow_pickle=False) as f:  # plain arrays, no pickle
+        assert "actor/" + next(iter(wa["actor"])) in f.files
     cfg, actor = load_actor(tmp_path / "resumed", "final")
     assert cfg.method == method
 
@@ -130,7 +136,7 @@ def test_resume_refuses_other_settings_and_damaged_weights(tmp_path):
     with pytest.raises(ValueError, match="already holds a run"):
         LeanPPO(LeanConfig(steps=720, **base), tmp_path / "run")
     ck = json.loads((tmp_path / "run" / "checkpoint.json").read_text())
-    (tmp_path / "run" / ck["weights"]).write_bytes(b"not a torch file")
+    (tmp_path / "run" / ck["weights"]).write_bytes(b"not a weights file")
     with pytest.raises(ValueError, match="damaged"):
         LeanPPO(LeanConfig(steps=720, **base), tmp_path / "run", resume=True)
 
