@@ -43,7 +43,10 @@ def generations(run: Path) -> int:
 
 
 def runs(experiment: Path) -> list[Path]:
-    return sorted(p for p in (experiment / "runs").iterdir() if p.is_dir()) if (experiment / "runs").is_dir() else []
+    """The run folders of an experiment (not a staged copy left by an interrupted park or restore)."""
+    if not (experiment / "runs").is_dir():
+        return []
+    return sorted(p for p in (experiment / "runs").iterdir() if p.is_dir() and not p.name.startswith("."))
 
 
 def parked_folder(name: str) -> Path:
