@@ -79,6 +79,8 @@ class EmulatedWorld:
         # (left to right), back-right, back
         a = model.sensor_angles
         self.arena = Arena(self.world, model, sensor_angles=[BACK_ANGLES[0], *a, BACK_ANGLES[1], BACK_ANGLES[2]])
+        # compiled before serving: a robot's first command must not wait for a compilation (Arena.compile_rules)
+        self.arena.compile_rules()
         self._lock = threading.RLock()
         now = self.clock.now()
         self.time = now

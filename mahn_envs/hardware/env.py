@@ -209,6 +209,7 @@ class KheperaHardwareEnv(ParallelEnv):
         self._report_lock = threading.Lock()
         self.firmware: dict[str, tuple[int, int] | None] = {}
         self.speed_units: list[float] = []
+        self._compile_rules()
         # connect; on any failure stop and close what was opened
         self._atexit_hook = self._at_exit
         atexit.register(self._atexit_hook)
@@ -221,6 +222,17 @@ class KheperaHardwareEnv(ParallelEnv):
             raise
 
     # ------------------------------------------------------------------ configuration checks
+    def _compile_rules(self) -> None:
+        """Compile (or load from numba's cache) every compiled rule a tick runs, before any robot is connected.
+        Without it the first tick that reaches a rule compiles it (seconds with a cold cache, as after an install
+        or an update) while the robots drive on their last command, and a reply can time out meanwhile; measured
+        before this: the score, the fitness, the reflex and the input encoding compiled inside the first ticks
+        (tests/hardware/test_compiled_ahead.py)."""
+        self._score.compile_rules()
+        encode_inputs(self._q, self._score.signals, self.sensor_floor, self.input_ceiling)
+        for action in (0, 1, 2):
+            reflex_motion(action, self._q[0], False, self.sensor_floor, self.reflex, self.reflex_arc)
+
     def _check_speed_units(self, speed_unit: str | float | tuple[float, ...], n: int) -> list[float | None]:
         """One speed unit per robot (None: read from the firmware's B reply)."""
         if isinstance(speed_unit, str):  # "auto", the only string Driving accepts

@@ -80,10 +80,12 @@ def park(experiment: Path, name: str, force: bool = False, log=print) -> Path:
     shutil.copy2(experiment / PLAN_FILE, target / PLAN_FILE)
     for run in runs(experiment):
         kept = target / "runs" / run.name
-        if kept.exists() and not force and generations(kept) > generations(run):
-            log(f"{run.name}: the parked copy is further along ({generations(kept)} > {generations(run)} "
-                "generations): kept (--force replaces it)")
-            continue
+        if kept.exists() and not force:
+            g_kept, g_run = generations(kept), generations(run)  # each checkpoint read (and checked) once
+            if g_kept > g_run:
+                log(f"{run.name}: the parked copy is further along ({g_kept} > {g_run} generations): kept "
+                    "(--force replaces it)")
+                continue
         _copy_run(run, kept)
     return target
 
@@ -99,9 +101,8 @@ def restore(name: str, experiment: Path, log=print) -> None:
         here = experiment / "runs" / run.name
         if here.exists() and lock_holder(here) is not None:
             log(f"{run.name}: in use here, left as it is")
-        elif here.exists() and generations(here) > generations(run):
-            log(f"{run.name}: further along here ({generations(here)} > {generations(run)} generations), left as "
-                "it is")
+        elif here.exists() and (g := (generations(here), generations(run)))[0] > g[1]:
+            log(f"{run.name}: further along here ({g[0]} > {g[1]} generations), left as it is")
         else:
             _copy_run(run, here)
 
