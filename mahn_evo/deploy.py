@@ -158,9 +158,7 @@ def deploy(champion_path: str | Path, ports: Sequence[str] | None = None, *,
         env = KheperaHardwareEnv(list(ports), poses=poses, **kwargs)
         try:
             with env:
-                policy = ControllerPolicy(team, env.possible_agents)
-                # compile / load the network before the robots are placed, not inside the first control tick
-                policy.act({a: np.ones(7, dtype=np.float32) for a in env.possible_agents})
+                policy = ControllerPolicy(team, env.possible_agents)  # compiles its network, before placement
                 obs, infos = env.reset()
                 policy.reset()
                 return _run_episode(env, policy, team, obs, infos, clock, log_path, on_tick, quiet)

@@ -33,6 +33,10 @@ class ControllerPolicy:
         self._tmp = np.zeros(self._n_hidden + 3, dtype=np.float32)
         self._episodes = 0
         self.reset(1)
+        # compile (or load from numba's cache) the network now: a first call compiles, seconds with a cold cache,
+        # which inside a real robot's first tick would leave the robots driving on their last command
+        self._step(0, 0)
+        self.reset(1)
 
     def reset(self, n_episodes: int = 1) -> None:
         """Start `n_episodes` fresh episodes (state cleared); the same team acts in every one of them."""

@@ -4,7 +4,8 @@ A numba function compiles at its first call: seconds with a cold cache (after an
 milliseconds when loaded from the cache.  Inside the control loop that stalls a tick while the robots drive on their
 last command, and in the emulator a reply can time out (seen: `mahn-evo deploy --emulate` failing on its first
 run with "no reply within 0.12 s").  So the hardware env and the emulator compile every rule they call before
-they connect (`KheperaHardwareEnv._compile_rules`, `Arena.compile_rules`, `ScoreKeeper.compile_rules`).
+they connect (`KheperaHardwareEnv._compile_rules`, `Arena.compile_rules`, `ScoreKeeper.compile_rules`), and
+`ControllerPolicy` its network when it is made.
 
 The check runs in a fresh interpreter, where no other test has compiled anything yet: it counts each compiled
 function's compiled versions after the set-up, after `reset` and after a whole episode (with the come-home signal
@@ -54,7 +55,6 @@ env = KheperaHardwareEnv(emu.ports, timing=Timing(clock=clock), catch_sigterm=Fa
                          poses=Poses(placement=emu.place, pose_source=emu.poses),
                          episode=Episode(max_cycles=60, signal_tick=30))
 policy = ControllerPolicy(random_team(11, n_brains=2), env.possible_agents)
-policy.act({a: np.ones(7, dtype=np.float32) for a in env.possible_agents})  # as mahn-evo deploy does
 ready = compiled()
 obs, infos = env.reset()
 policy.reset()
@@ -79,7 +79,7 @@ def test_the_control_loop_compiles_nothing():
     for rule in ("mahn_envs.core.task.score_tick", "mahn_envs.core.task.team_fitness",
                  "mahn_envs.core.task.steer", "mahn_envs.core.task.reflex_response",
                  "mahn_envs.core.task.wall_revert", "mahn_envs.core.geometry.cast_rays",
-                 "mahn_envs.core.task.input_value"):
+                 "mahn_envs.core.task.input_value", "mahn_envs.core.controller.network_action"):
         assert rule in report["set_up"], (rule, report)
     # ... and neither reset nor the ticks compile anything more
     assert report["reset"] == [] and report["loop"] == [], report
