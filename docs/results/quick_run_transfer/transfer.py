@@ -73,8 +73,8 @@ def table(path: Path) -> str:
     by_variant: dict[str, list[dict]] = {}
     for r in rows:
         by_variant.setdefault(r["run"].rsplit("_s", 1)[0], []).append(r)
-    lines += ["", f"| variant | runs | within 20 % of training | of noise-free | emulated >= {PATROL_LEVEL:g} (seeds) | "
-              "median emulator fitness |", "|---|---|---|---|---|---|"]
+    lines += ["", "| variant | runs | within 20 % of training | of noise-free | "
+              f"emulated >= {PATROL_LEVEL:g} (seeds) | median emulator fitness |", "|---|---|---|---|---|---|"]
     for name, rs in by_variant.items():
         patrol = [r["seed"] for r in rs if r["emulator_mean_fitness"] >= PATROL_LEVEL]
         lines.append(f"| {name} | {len(rs)} | {sum(r['within_20_training'] for r in rs)} | "
