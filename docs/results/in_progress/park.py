@@ -101,10 +101,13 @@ def restore(name: str, experiment: Path, log=print) -> None:
         here = experiment / "runs" / run.name
         if here.exists() and lock_holder(here) is not None:
             log(f"{run.name}: in use here, left as it is")
-        elif here.exists() and (g := (generations(here), generations(run)))[0] > g[1]:
-            log(f"{run.name}: further along here ({g[0]} > {g[1]} generations), left as it is")
-        else:
-            _copy_run(run, here)
+            continue
+        if here.exists():
+            g_here, g_parked = generations(here), generations(run)  # each checkpoint read (and checked) once
+            if g_here > g_parked:
+                log(f"{run.name}: further along here ({g_here} > {g_parked} generations), left as it is")
+                continue
+        _copy_run(run, here)
 
 
 def listing() -> list[dict]:
