@@ -91,16 +91,26 @@ with tempfile.TemporaryDirectory() as d:
     shutil.copytree(run_dir, d, dirs_exist_ok=True)
     cfg = EvolutionConfig.from_saved(read_versioned_json(f"{d}/config.json", "config"))
     tr = Trainer(cfg.with_overrides(generations=10**6), d, resume=True)
+    def evaluator():
+        # the evaluator the trainer's step uses for this generation: with robust_from "first_solution", the
+        # noise-free one until the robust phase starts (revisions that have it)
+        nf = getattr(tr, "noise_free_evaluator", None)
+        if nf is not None:
+            start = tr.config.robust_phase_start(tr.first_solved)
+            if start is None or tr.population.generation < start:
+                return nf
+        return tr.evaluator
     def score(genomes, controllers):
         # the generation's fitness and solved fractions as the trainer gets them: `evaluate` (with symmetry "best"
         # every mirror reading of each genome is scored, the best counts), after `decode` timed apart (the
         # evaluator's decode memo then hands evaluate the same controllers)
         g = tr.population.generation
-        if hasattr(tr.evaluator, "evaluate"):
+        ev_ = evaluator()
+        if hasattr(ev_, "evaluate"):
             try:
-                ev = tr.evaluator.evaluate(genomes, g)
+                ev = ev_.evaluate(genomes, g)
             except TypeError:  # a revision from before per-generation draws
-                ev = tr.evaluator.evaluate(genomes)
+                ev = ev_.evaluate(genomes)
             return ev.fitness, ev.solved
         try:  # a revision whose evaluator only scored controllers
             return tr.evaluator.score(controllers, g)
@@ -109,7 +119,7 @@ with tempfile.TemporaryDirectory() as d:
     # one untimed generation: loads the compiled code and, as in a running trainer, leaves the previous
     # generation in the evaluator's memos (revisions that have them)
     first = tr.population.ask()
-    tr.population.tell(score(first, tr.evaluator.decode(first))[0])
+    tr.population.tell(score(first, evaluator().decode(first))[0])
     parts = {"decode": [], "evaluate": [], "reproduce": [], "checkpoint": []}
     cpu = []
     digest = hashlib.sha256()
@@ -117,7 +127,7 @@ with tempfile.TemporaryDirectory() as d:
         c0 = time.process_time()
         t0 = time.perf_counter()
         genomes = tr.population.ask()
-        controllers = tr.evaluator.decode(genomes)
+        controllers = evaluator().decode(genomes)
         t1 = time.perf_counter()
         fitness, solved = score(genomes, controllers)
         t2 = time.perf_counter()

@@ -23,6 +23,16 @@ from .rng import check_seed
 
 
 @dataclass
+class RobotEpisodes:
+    """Robot episodes (`BatchSim.run_robot_episodes`): samples[b, s, r] robot r's (x, y, heading) at fitness sample s
+    of episode b, finals[b, r] at its end, robots[b] the bit mask of the robots that played."""
+
+    samples: np.ndarray
+    finals: np.ndarray
+    robots: np.ndarray
+
+
+@dataclass
 class RunResult:
     """Outcome of whole episodes: team fitness and `solved` per episode; trajectories if recorded.
 
@@ -326,6 +336,16 @@ class BatchSim:
 
         A single team is run in every episode; a batch of B teams runs team b in episode b.
         """
+        fitness, solved, traj, _ = self._run(controllers, seed, poses, episode_keys, record,
+                                             np.full(self.n_episodes, T.ALL_ROBOTS, dtype=np.int64), False)
+        return RunResult(fitness=fitness, solved=solved, collisions=self.racc[:, :, T.R_COLL].astype(np.int64),
+                         trajectories=traj if record else None)
+
+    def _run(self, controllers: TeamControllers, seed: int, poses: np.ndarray | None,
+             episode_keys: Sequence[int] | np.ndarray | None, record: bool, robots: np.ndarray, sample: bool
+             ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The compiled episodes of `run_controllers` and `run_robot_episodes`: (fitness, solved, trajectories,
+        fitness-sample poses)."""
         ctrl = self._teams(controllers)
         self.reset(seed=seed, poses=poses, episode_keys=episode_keys)
         B, R = self.n_episodes, self.n_robots
@@ -337,13 +357,54 @@ class BatchSim:
         solved = np.zeros(B, dtype=np.bool_)
         T_ = self.params.max_cycles
         traj = np.zeros((B, T_ + 1, R, 4)) if record else np.zeros((1, 1, 1, 4))
+        samples = np.zeros((B, T_ // self.params.sample_period, R, 3)) if sample else np.zeros((1, 1, 1, 3))
         nets = (*transposed(ctrl), hid, out, brain, ctrl.decision == "net_input")
         kernels.run_controllers(self._state, self._geometry, self._task(), self._work, nets,
-                                kernels.network_scratch(nets[0], n_hidden), (fitness, solved), traj, record)
+                                kernels.network_scratch(nets[0], n_hidden), (fitness, solved), traj, record,
+                                robots, samples, sample)
         self.prev_fit[:] = fitness
         self.solved[:] = solved
-        return RunResult(fitness=fitness, solved=solved, collisions=self.racc[:, :, T.R_COLL].astype(np.int64),
-                         trajectories=traj if record else None)
+        return fitness, solved, traj, samples
+
+    def run_robot_episodes(self, controllers: TeamControllers, robots: np.ndarray, seed: int = 0,
+                           episode_keys: Sequence[int] | np.ndarray | None = None) -> RobotEpisodes:
+        """Whole episodes in which only some robots play: robot r of episode b when bit r of robots[b] is set
+        (the others stay at their start).  Only for robots blind to each other (`robots_see_each_other` off):
+        then a robot's episode is a pure function of its controller, its place r, the seed and the episode key,
+        and `score_teams` assembles any team from robot episodes played in any batch.  Why: a team and its two
+        mirror readings (symmetry "best") share 4 of their 9 robots, so 5 robot episodes score all three."""
+        if self.params.robots_see_each_other:
+            raise ValueError("run_robot_episodes needs robots that do not see each other: with "
+                             "robots_see_each_other a robot's episode depends on its team mates")
+        mask = np.asarray(robots, dtype=np.int64)
+        if mask.shape != (self.n_episodes,):
+            raise ValueError(f"robots must hold one bit mask per episode ({self.n_episodes}), got shape {mask.shape}")
+        _, _, _, samples = self._run(controllers, seed, None, episode_keys, False, np.ascontiguousarray(mask), True)
+        return RobotEpisodes(samples=samples, finals=self.pose[:, :, :3].copy(), robots=mask.copy())
+
+    def score_teams(self, episodes: RobotEpisodes, src: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(fitness, solved, final poses (T, R, 3)) of T teams assembled from robot episodes of this sim's task
+        (`run_robot_episodes`): robot r of team t is robot r of episode src[t, r], which must have played it.
+        The same numbers, bit for bit, as the teams' own episodes (kernels.score_teams)."""
+        src = np.ascontiguousarray(src, dtype=np.int64)
+        n_ep = episodes.samples.shape[0]
+        if src.ndim != 2 or src.shape[1] != self.n_robots:
+            raise ValueError(f"src must have shape (teams, {self.n_robots}), got {src.shape}")
+        if src.size and (src.min() < 0 or src.max() >= n_ep):
+            raise ValueError(f"src names episodes outside 0..{n_ep - 1}")
+        played = (episodes.robots[src] >> np.arange(self.n_robots)) & 1
+        if not played.all():
+            t, r = np.argwhere(played == 0)[0]
+            raise ValueError(f"robot {r} of team {t} comes from episode {src[t, r]}, which did not play it")
+        n, R = src.shape[0], self.n_robots
+        state = (np.zeros((n, R, 4)), np.zeros((n, R, 6)), np.zeros((n, R, 7), dtype=np.float32),
+                 np.zeros((n, R, 4)), np.zeros((n, R, 3), dtype=np.uint8), np.zeros((n, self.goto.shape[1])),
+                 np.zeros((n, 3), dtype=np.int64))
+        fitness = np.zeros(n)
+        solved = np.zeros(n, dtype=np.bool_)
+        kernels.score_teams(episodes.samples, episodes.finals, src, state, self._geometry, self._pvec,
+                            (fitness, solved))
+        return fitness, solved, state[0][:, :, :3].copy()
 
     def run_sequential(self, controllers: TeamControllers, seed: int = 0,
                        episode_keys: Sequence[int] | np.ndarray | None = None,

@@ -18,7 +18,7 @@ from numba import njit, types
 from numba.extending import intrinsic
 
 from .expf import SIGMOID_SLOPE32, TABLE, expf, sigmoid_8, sigmoid_ir
-from .task import FORWARD, LEFT, NONE, RIGHT
+from .task import ALL_ROBOTS, FORWARD, LEFT, NONE, RIGHT
 
 SIGMOID_SLOPE = SIGMOID_SLOPE32  # 4.9 in float32
 
@@ -493,16 +493,19 @@ def _step_pending_16(n, pending, obs, rflag, flag, state, brain, prev, memo_obs,
 
 @njit(cache=True, error_model="numpy", inline="always")
 def remembered_actions_16(b, obs, rflag, flag, n_brains, wpack, bpack, state, brain, prev, memo_obs, memo, pending,
-                          by_net=False):
+                          by_net=False, robots=ALL_ROBOTS):
     """`remembered_action_16` for every robot of episode b at once: each robot's action in memo[r, 2].
 
     The robots' networks are independent (each reads its own inputs, state and weights), so the ones the memo
     cannot answer step together, up to three at a time (`_network_16_ir` overlaps their dependency chains):
     the same operations per robot as one by one, so the same bits.  rflag[b, r, flag] is robot r's come-home
-    signal; prev (R, 9) float32 and pending (R, PENDING) int64 are scratch."""
+    signal; prev (R, 9) float32 and pending (R, PENDING) int64 are scratch.  Only the robots whose bit is set in
+    `robots` (bit r: robot r) step; the others are left as they are (kernels.run_controllers' robot episodes)."""
     n_robots = state.shape[1]
     n = 0
     for r in range(n_robots):
+        if not (robots >> r) & 1:
+            continue
         k = brain[b, r]
         if _recall_16(b, r, obs, rflag[b, r, flag], n_brains, state, brain, prev[r], memo_obs, memo):
             continue

@@ -53,6 +53,7 @@ from .task import (
     E_TICK,
     F_SIGNAL,
     P_MAXT,
+    P_PERIOD,
     P_SEE,
     H,
     X,
@@ -266,12 +267,19 @@ def network_scratch(wt_ih: np.ndarray, n_hidden: int) -> tuple:
 
 
 @njit(cache=True, error_model="numpy", parallel=True)
-def run_controllers(state, arena, task, work, nets, brains, result, traj, record):
+def run_controllers(state, arena, task, work, nets, brains, result, traj, record, robots, samples, sample):
     """Whole episodes with the controllers in the loop, episodes spread over the cores.
 
     State arrays must hold the reset state (poses placed, first sensing done); `brains` comes from
     `network_scratch`.  With `record`, traj[b, t] receives (x, y, heading, action) of every robot after tick t
     (t = 0 is the start).
+
+    Robot episodes: only the robots whose bit is set in robots[b] (bit r: robot r; ALL_ROBOTS: every one) decide,
+    move and sense in episode b; the others stay where they started.  With robots blind to each other a robot's
+    whole episode depends on nothing but its own controller, start and noise draws (keyed by its place r), so a
+    team's episode can be assembled from robot episodes played in other teams (`score_teams`).  With `sample`,
+    samples[b, s, r] receives robot r's (x, y, heading) at the fitness sample s (tick (s + 1) * period): all the
+    team fitness reads of a robot besides its final pose.
 
     The trainer's loop has its own body instead of `play_tick`: measured against 5e5b9eb (benchmarks/bench_ab.py
     --batch 300 --teams champions, one thread, CPU time), the shared tick in this parallel loop cost 7-13% (per
@@ -329,9 +337,11 @@ def run_controllers(state, arena, task, work, nets, brains, result, traj, record
     see = params[P_SEE] > 0.5
     size_9 = is_size_9(wt_ih)
     n_brains = wt_ih.shape[2]
+    period = int(params[P_PERIOD])
     if size_9:
         pack_networks(wt_ih, wt_hh, wt_ho, b_h, b_o, wpack, bpack)
     for b in prange(n_ep):
+        mask = robots[b]
         others = others_all[b]
         cand = cand_all[b]
         tmp_h = tmp_all[b]
@@ -359,9 +369,11 @@ def run_controllers(state, arena, task, work, nets, brains, result, traj, record
             est[b, E_TICK] = tick
             if size_9:  # every robot's network first (they overlap), each robot's action in memo[r, 2]
                 remembered_actions_16(b, obs, rflag, F_SIGNAL, n_brains, wpack, bpack, lanes, brain, prev, memo_obs,
-                                      memo, pending, by_net)
+                                      memo, pending, by_net, mask)
             stream = tick_stream(seed, key, tick)
             for r in range(n_robots):
+                if not (mask >> r) & 1:
+                    continue
                 if size_9:
                     action = memo[r, 2]
                 else:
@@ -372,9 +384,15 @@ def run_controllers(state, arena, task, work, nets, brains, result, traj, record
                     traj[b, tick, r, 3] = action
             # `move_tick`, `score_tick`, `sense_tick` of the shared tick, on the episode's memo rows
             for r in range(n_robots):
-                heading_trig(b, r, pose[b, r, H], trig_all, at_all)
-                drive_robot(b, r, trig[r, 0], trig[r, 1], pose, racc, params, walls, boxes)
+                if (mask >> r) & 1:
+                    heading_trig(b, r, pose[b, r, H], trig_all, at_all)
+                    drive_robot(b, r, trig[r, 0], trig[r, 1], pose, racc, params, walls, boxes)
             score_tick(b, tick, pose, racc, rflag, goto, est, pois, home, params)
+            if sample and tick % period == 0:
+                for r in range(n_robots):
+                    samples[b, tick // period - 1, r, 0] = pose[b, r, X]
+                    samples[b, tick // period - 1, r, 1] = pose[b, r, Y]
+                    samples[b, tick // period - 1, r, 2] = pose[b, r, H]
             if record:
                 for r in range(n_robots):
                     traj[b, tick, r, 0] = pose[b, r, X]
@@ -385,6 +403,8 @@ def run_controllers(state, arena, task, work, nets, brains, result, traj, record
                     x = pose[b, r, X]
                     y = pose[b, r, Y]
                     h = pose[b, r, H]
+                    if not (mask >> r) & 1:
+                        continue
                     if see or not (x == at[r, 1] and y == at[r, 2] and h == at[r, 3] and x != 0.0 and y != 0.0
                                    and h != 0.0):
                         heading_trig(b, r, h, trig_all, at_all)
@@ -393,7 +413,7 @@ def run_controllers(state, arena, task, work, nets, brains, result, traj, record
                         at[r, 1] = x
                         at[r, 2] = y
                         at[r, 3] = h
-                encode_episode_with(b, tick + 1, raw, obs, rflag, params, seed, key, gauss, gauss_rows[b])
+                encode_episode_with(b, tick + 1, raw, obs, rflag, params, seed, key, gauss, gauss_rows[b], mask)
         if size_9:
             for r in range(n_robots):
                 for i in range(9):
@@ -403,6 +423,46 @@ def run_controllers(state, arena, task, work, nets, brains, result, traj, record
         fit, ok = team_fitness(b, pose, racc, rflag, goto, est, home)
         fitness[b] = fit
         solved[b] = ok
+
+
+@njit(cache=True, error_model="numpy", parallel=True)
+def score_teams(samples, finals, src, state, arena, params, result):
+    """The outcome of teams assembled from robot episodes (`run_controllers` with robot masks and `sample`):
+    robot r of team t is robot r of episode src[t, r], with its poses at the fitness samples (samples) and at the
+    end (finals (B, R, 3)).  Each team is scored by `score_tick` at every sample tick and `team_fitness` at the
+    end: the calls its own episode made, with the same poses, so the same numbers bit for bit.  state holds one
+    zeroed episode per team (as after a reset) and receives the teams' end state (final poses included)."""
+    pose = state[0]
+    racc = state[3]
+    rflag = state[4]
+    goto = state[5]
+    est = state[6]
+    pois = arena[3]
+    home = arena[4]
+    fitness = result[0]
+    solved = result[1]
+    n_ticks = int(params[P_MAXT])
+    period = int(params[P_PERIOD])
+    n_robots = pose.shape[1]
+    for t in prange(src.shape[0]):
+        for s in range(n_ticks // period):
+            tick = (s + 1) * period
+            for r in range(n_robots):
+                e = src[t, r]
+                pose[t, r, X] = samples[e, s, r, 0]
+                pose[t, r, Y] = samples[e, s, r, 1]
+                pose[t, r, H] = samples[e, s, r, 2]
+            est[t, E_TICK] = tick
+            score_tick(t, tick, pose, racc, rflag, goto, est, pois, home, params)
+        for r in range(n_robots):
+            e = src[t, r]
+            pose[t, r, X] = finals[e, r, 0]
+            pose[t, r, Y] = finals[e, r, 1]
+            pose[t, r, H] = finals[e, r, 2]
+        est[t, E_TICK] = n_ticks
+        fit, ok = team_fitness(t, pose, racc, rflag, goto, est, home)
+        fitness[t] = fit
+        solved[t] = ok
 
 
 @njit(cache=True, error_model="numpy", parallel=True)

@@ -42,6 +42,9 @@ X, Y, H, V = 0, 1, 2, 3
 R_END, R_ORIG_DIST, R_ORIG_HEAD, R_COLL = 0, 1, 2, 3
 F_SIGNAL, F_TURNED, F_REACH = 0, 1, 2
 E_TICK, E_ALLCLOSE, E_SWITCHED = 0, 1, 2
+#: every robot's bit set: the robot mask (bit r: robot r) of an episode whose robots all play (robot episodes:
+#: kernels.run_controllers)
+ALL_ROBOTS = -1
 
 # actions: the substrate's output order, plus an internal "no decision" for NaN outputs
 LEFT, FORWARD, RIGHT, NONE = 0, 1, 2, 3
@@ -210,9 +213,10 @@ def encode_episode(b, tick, raw, obs, rflag, params, seed, key):
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def encode_episode_with(b, tick, raw, obs, rflag, params, seed, key, gauss, row):
+def encode_episode_with(b, tick, raw, obs, rflag, params, seed, key, gauss, row, robots=ALL_ROBOTS):
     """`encode_episode` with the "khepera" model's Gaussians read from gauss[row] where row >= 0 (see
-    `khepera_pair`): the same inputs, bit for bit."""
+    `khepera_pair`): the same inputs, bit for bit.  Only the robots whose bit is set in `robots` (default: all)
+    are encoded (robot episodes, kernels.run_controllers)."""
     f_floor = np.float32(params[P_FLOOR])
     f_ceil = np.float32(params[P_CEIL])
     noise = params[P_SNOISE] / 100.0
@@ -223,6 +227,8 @@ def encode_episode_with(b, tick, raw, obs, rflag, params, seed, key, gauss, row)
     if khepera:  # a ray that hit nothing reads the range's gap
         free_count, free_sigma = khepera_count_sigma(params[P_RANGE] - params[P_RADIUS], params[P_IR], noise)
     for r in range(raw.shape[1]):
+        if not (robots >> r) & 1:
+            continue
         if khepera:
             for j in range(0, 6, 2):
                 s0, s1 = khepera_pair(b, r, j, tick, raw, params, noise, stream, free_count, free_sigma, gauss, row)

@@ -88,6 +88,41 @@ def distinct_keys(keys: Sequence[bytes]) -> tuple[np.ndarray, np.ndarray]:
     return np.array(first, dtype=np.int64), index
 
 
+def all_robots_mask(n_robots: int) -> int:
+    """The bit mask of a team's n robots all playing."""
+    return (1 << n_robots) - 1
+
+
+def robot_episodes(ctrl: TeamControllers) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The fewest robot episodes that play every robot of the batch at its place: (carriers, robots, src).
+    Team carriers[c] carries episode c, in which the robots of bit mask robots[c] play; robot r of team t is
+    robot r of episode src[t, r].  A robot (its controller arrays, float32 bit patterns, as `team_keys`) met again
+    at the same place in a later team is not played again.  In teams in batch order, the first team with a robot
+    not played yet carries it."""
+    c = ctrl.as_batch()
+    n, n_robots = c.w_ih.shape[0], c.n_robots
+    rows = np.concatenate([np.ascontiguousarray(getattr(c, f), dtype=np.float32).reshape(n, n_robots, -1)
+                           for f in CONTROLLER_FIELDS], axis=2)
+    where: dict[tuple[int, bytes], int] = {}
+    carriers: list[int] = []
+    robots: list[int] = []
+    src = np.empty((n, n_robots), dtype=np.int64)
+    for t in range(n):
+        mine = -1
+        for r in range(n_robots):
+            k = (r, rows[t, r].tobytes())
+            e = where.get(k)
+            if e is None:
+                if mine < 0:
+                    mine = len(carriers)
+                    carriers.append(t)
+                    robots.append(0)
+                robots[mine] |= 1 << r
+                e = where[k] = mine
+            src[t, r] = e
+    return np.array(carriers, dtype=np.int64), np.array(robots, dtype=np.int64), src
+
+
 class TeamEvaluator:
     """Scores genomes as teams on one map.  Deterministic: episodes are keyed, not drawn from shared state.
 
@@ -249,13 +284,9 @@ class TeamEvaluator:
             seq = sim.run_sequential(run, seed=s.seed, episode_keys=keys, max_lost=limits)
             fit_e, ok_e = sequential_fitness(seq.stages_completed, seq.success, ctrl.n_robots), seq.success
             cut = seq.cut
+            end_xy = sim.pose[:, :, :2].copy()  # where the episodes left each robot
         else:
-            sim = self._clean_sim(len(todo)) if protocol == "clean" else \
-                self._clean_variant_sim(key, len(todo)) if protocol == "clean_variant" else \
-                self._keyed_sim(key, len(todo))
-            res = sim.run_controllers(run, seed=s.seed, episode_keys=keys)
-            fit_e, ok_e = res.fitness, res.solved
-        end_xy = sim.pose[:, :, :2].copy()  # where the episodes left each robot
+            fit_e, ok_e, end_xy = self._play_training(run, protocol, key)
         for j, i in enumerate(todo):
             if cut[j]:
                 continue
@@ -264,6 +295,34 @@ class TeamEvaluator:
             ends[i] += end_xy[j]
             self._scores.put((teams[i], protocol, key), (float(fit_e[j]), bool(ok_e[j]), end_xy[j]))
         return [i for j, i in enumerate(todo) if cut[j]]
+
+    def _sim_of(self, protocol: str, key: int, n: int) -> BatchSim:
+        """The simulator of training-protocol episode (protocol, key) for n episodes."""
+        if protocol == "clean":
+            return self._clean_sim(n)
+        if protocol == "clean_variant":
+            return self._clean_variant_sim(key, n)
+        return self._keyed_sim(key, n)
+
+    def _play_training(self, run: TeamControllers, protocol: str, key: int
+                       ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(fitness, solved, end positions (n, R, 2)) of the teams `run` in training-protocol episode (protocol,
+        key).  Robots blind to each other play robot episodes (`robot_episodes`): a robot that several teams share
+        at the same place (a genome's mirror readings share 4 of their 9) plays once, and each team is assembled
+        from its robots' episodes, bit for bit its own episode (BatchSim.score_teams)."""
+        s = self.settings
+        n = run.w_ih.shape[0]
+        if not s.task.robots_see_each_other:
+            carriers, robots, src = robot_episodes(run)
+            if len(carriers) < n or np.any(robots != all_robots_mask(run.n_robots)):
+                sim = self._sim_of(protocol, key, len(carriers))
+                played = sim.run_robot_episodes(_rows(run, carriers), robots, seed=s.seed,
+                                                episode_keys=np.full(len(carriers), key, dtype=np.int64))
+                fit, ok, final = sim.score_teams(played, src)
+                return fit, ok, final[:, :, :2]
+        sim = self._sim_of(protocol, key, n)
+        res = sim.run_controllers(run, seed=s.seed, episode_keys=np.full(n, key, dtype=np.int64))
+        return res.fitness, res.solved, sim.pose[:, :, :2].copy()
 
     def _aggregate(self, fits: np.ndarray) -> np.ndarray:
         """The team fitness from its episodes' (E, n): the mean (summed in episode order, as always: bit-identical

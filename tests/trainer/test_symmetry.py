@@ -132,3 +132,43 @@ def test_the_published_mirror_readings_experiment_is_the_documented_command():
                                       "--generations", "1000", "--after-solved", "50", "--preset",
                                       "iros2011-multistep", "--symmetry", "best"])
     assert experiment_plan(args) == published
+
+
+@pytest.mark.parametrize("noise", ["none", "generalization"])
+def test_best_plays_each_robot_of_the_three_readings_once_with_the_same_scores(tmp_path, monkeypatch, noise):
+    """A genome's three readings share 4 of their 9 robots (each at the same place), and robots blind to each other
+    play alone: the evaluator plays 5 robot episodes per genome, not 9, and scores every team exactly as its own
+    episode would (the team path, forced here, gives the same fitness, solved fractions and end positions)."""
+    from mahn_evo.evaluation.task_setup import task_params
+    from mahn_evo.hyperneat import team_evaluator
+    from mahn_evo.hyperneat.team_evaluator import TeamEvaluator
+
+    trainer = Trainer(EvolutionConfig(mode="situational", seed=4, init="minimal").with_overrides(pop=12), tmp_path)
+    for _ in range(3):  # a few generations, so that the teams drive about
+        trainer.step()
+    genomes = trainer.population.ask()
+    settings = EvaluationSettings(symmetry="best", episodes=2, noise_free_episode=noise != "none",
+                                  noise_draws="per_generation", task=task_params(noise))
+    played: list[int] = []
+    real = team_evaluator.robot_episodes
+
+    def counting(ctrl):
+        carriers, robots, src = real(ctrl)
+        played.append(sum(bin(int(m)).count("1") for m in robots))
+        return carriers, robots, src
+
+    monkeypatch.setattr(team_evaluator, "robot_episodes", counting)
+    by_robot = TeamEvaluator(settings).evaluate(genomes, 7)
+    assert len(played) == 2 + (noise != "none")  # the training episodes, each with at most 5 robots per genome
+    assert all(p <= 5 * len(genomes) for p in played)
+
+    def whole_teams(ctrl):  # every team plays its own episode
+        n = ctrl.w_ih.shape[0]
+        return np.arange(n), np.full(n, 7), np.arange(n)[:, None].repeat(3, axis=1)
+
+    monkeypatch.setattr(team_evaluator, "robot_episodes", whole_teams)
+    by_team = TeamEvaluator(settings).evaluate(genomes, 7)
+    assert np.array_equal(by_robot.fitness, by_team.fitness)
+    assert np.array_equal(by_robot.solved, by_team.solved)
+    assert np.array_equal(by_robot.end_positions, by_team.end_positions)
+    assert len(set(by_team.fitness.round(9))) > 2  # the genomes differ
