@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from mahn_envs.core import BatchSim
+from mahn_envs.core.params import NOISE_FIELDS
 from mahn_envs.core.sequential import SequentialSettings, sequential_task
 from mahn_envs.maps import World, load_map
 from mahn_envs.maps.variants import spread_variant
@@ -174,13 +175,27 @@ class TeamEvaluator:
             self._sims = {n: BatchSim(self.world, n, self.settings.task)}
         return self._sims[n]
 
-    def _keyed_sim(self, key: int, n: int) -> BatchSim:
-        """The simulator of keyed episode `key` for n teams: on the map, or with map_spread on the key's variant."""
+    def _on_map(self, key: int) -> bool:
+        """Whether keyed episode `key` is played on the map itself (else on the key's plus variant)."""
         s = self.settings
         # key % episodes: the episode's place in its generation (keys run generation * K ... + K - 1, or 0 ... K - 1)
-        if not s.on_variants or key % s.episodes < s.plain_episodes:
+        return not s.on_variants or key % s.episodes < s.plain_episodes
+
+    def _keyed_sim(self, key: int, n: int) -> BatchSim:
+        """The simulator of keyed episode `key` for n teams: on the map, or with map_spread on the key's variant."""
+        if self._on_map(key):
             return self._sim(n)
-        return BatchSim(self._variant(key), n, s.task)
+        return BatchSim(self._variant(key), n, self.settings.task)
+
+    def _memo_key(self, protocol: str, key: int) -> int:
+        """The key an episode's outcome depends on, for the memo: -1 (any key) for a noise-free keyed episode on the
+        map itself, which draws nothing (every noise level and the start jitter at 0), so it is the same episode
+        whatever its key.  Why: with per-generation draws (the hardened preset's noise-free phase) its key changes
+        every generation, and the teams carried over (elites, about a fifth of a generation) would play it again."""
+        noise_free = all(getattr(self.settings.task, name) == 0.0 for name in NOISE_FIELDS)
+        if protocol == "keyed" and noise_free and self._on_map(key):
+            return -1
+        return key
 
     def _clean_sim(self, n: int) -> BatchSim:
         if n not in self._clean_sims:
@@ -264,8 +279,9 @@ class TeamEvaluator:
         (`BatchSim.run_sequential`); the rows stopped are returned, and nothing of theirs is recorded."""
         s = self.settings
         todo = []
+        memo_key = self._memo_key(protocol, key)
         for i in rows:
-            known = self._scores.get((teams[i], protocol, key))
+            known = self._scores.get((teams[i], protocol, memo_key))
             if known is None:
                 todo.append(i)
             else:
@@ -293,7 +309,7 @@ class TeamEvaluator:
             fits[i] = fit_e[j]
             solved[i] += ok_e[j]
             ends[i] += end_xy[j]
-            self._scores.put((teams[i], protocol, key), (float(fit_e[j]), bool(ok_e[j]), end_xy[j]))
+            self._scores.put((teams[i], protocol, memo_key), (float(fit_e[j]), bool(ok_e[j]), end_xy[j]))
         return [i for j, i in enumerate(todo) if cut[j]]
 
     def _sim_of(self, protocol: str, key: int, n: int) -> BatchSim:

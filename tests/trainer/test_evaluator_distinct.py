@@ -1,4 +1,6 @@
 """The evaluator runs each distinct team once and gives duplicates the same scores."""
+from dataclasses import replace
+
 import numpy as np
 
 from mahn_envs.core import TaskParams
@@ -73,3 +75,37 @@ def test_memos_give_the_results_of_a_fresh_evaluator_and_skip_known_work(tmp_pat
         skipped.append(len(distinct_teams(ev.controllers)[0]) - played_clean)
         tr.population.tell(ev.fitness)
     assert skipped[0] == 0 and max(skipped[1:]) > 0  # elites' noise-free episodes were not played again
+
+
+def test_a_noise_free_episode_on_the_map_is_remembered_across_its_changing_keys(monkeypatch):
+    """With per-generation draws a noise-free keyed episode on the map gets a new key every generation, yet it draws
+    nothing: a team the previous generation played there is not played again (its variant episode, whose map the key
+    draws, is); the scores equal a fresh evaluator's."""
+    from mahn_evo.hyperneat import team_evaluator
+
+    settings = EvaluationSettings(task=TaskParams(max_cycles=240, signal_tick=120), episodes=2,
+                                  noise_draws="per_generation", map_branch=49.0, branch_sides="one_short",
+                                  plain_episodes=1, seed=3)
+    teams = _batch([random_team(s) for s in (4, 5, 6)])
+    played: list[tuple[str, int, int]] = []
+    real = TeamEvaluator._play_training
+
+    def counting(self, run, protocol, key):
+        played.append((protocol, key, run.w_ih.shape[0]))
+        return real(self, run, protocol, key)
+
+    monkeypatch.setattr(team_evaluator.TeamEvaluator, "_play_training", counting)
+    ev = TeamEvaluator(settings)
+    ev.score(teams, 0)
+    assert played == [("keyed", 0, 3), ("keyed", 1, 3)]
+    played.clear()
+    fit, solved = ev.score(teams, 1)
+    assert played == [("keyed", 3, 3)]  # key 2 (on the map) is remembered from key 0; key 3 is a new variant
+    fresh_fit, fresh_solved = TeamEvaluator(settings).score(teams, 1)
+    assert np.array_equal(fit, fresh_fit) and np.array_equal(solved, fresh_solved)
+    noisy = replace(settings, task=TaskParams(max_cycles=240, signal_tick=120, sensor_noise=5.0))
+    ev = TeamEvaluator(noisy)
+    ev.score(teams, 0)
+    played.clear()
+    ev.score(teams, 1)
+    assert [p[1] for p in played] == [2, 3]  # under noise the key draws the noise: both played

@@ -45,11 +45,18 @@ PINNED_BEST = {
                           branch_sides="one_short", plain_episodes=1, task=task_params("robot")),
                      [(2.7576994190196555, 1.2165021421300692), (2.9873150216792133, 1.859928778457025),
                       (3.542723019353266, 1.9688692178913576), (3.2315839134695663, 2.076628371177546)]),
+    # printed by 51427cb (robot episodes; its runs equal 95d83a3's), before noise-free episodes on the map were
+    # remembered across their per-generation keys: the hardened preset's noise-free phase
+    "noise_free_branch": (dict(init="iros2011", symmetry="best", episodes=2, noise_draws="per_generation",
+                               map_branch=49.0, branch_sides="one_short", plain_episodes=1),
+                          [(2.4142948655064496, 1.8396209735508855), (2.4997223051759256, 2.007622636395709),
+                           (2.495215234847189, 2.1019252595864693), (2.422529416729982, 2.0867316729919763),
+                           (2.4183943314364793, 2.1385994890329463), (2.4839424688394964, 2.289326430078477)]),
 }
 
 
 @pytest.mark.parametrize("case", list(PINNED_BEST))
 def test_mirror_readings_played_as_robot_episodes_reproduce_95d83a3_exactly(tmp_path, case):
     settings, pinned = PINNED_BEST[case]
-    tr = Trainer(EvolutionConfig(generations=4, seed=5, **settings).with_overrides(pop=40), tmp_path)
-    assert [(p.best_fitness, p.mean_fitness) for p in (tr.step() for _ in range(4))] == pinned
+    tr = Trainer(EvolutionConfig(generations=len(pinned), seed=5, **settings).with_overrides(pop=40), tmp_path)
+    assert [(p.best_fitness, p.mean_fitness) for p in (tr.step() for _ in range(len(pinned)))] == pinned
