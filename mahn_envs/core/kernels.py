@@ -1,8 +1,8 @@
 """Compiled batch loops over episodes.  Thin: every rule lives in core.task and core.controller.
 
-Numba caches these loops keyed on this file only: after changing a rule in task.py, geometry.py or
-controller.py, change this file too (even a comment, as this line was), or the cache keeps running the old compiled
-rules.
+Numba's cache of these loops is keyed on this file and every project module it imports, transitively
+(mahn_envs.compile_cache, registered when mahn_envs is imported): a change to a rule in task.py, geometry.py or
+controller.py recompiles them.
 
 One tick of an episode is written once, `play_tick` (decide every robot's action -> move -> score -> sense
 for the next tick), in three parts that the split tick of an external engine calls one by one

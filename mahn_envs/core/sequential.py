@@ -17,8 +17,8 @@ often in the kinematic engine with robots seeing each other as in pymunk with ro
 lifetime-hardened teams, 10 episodes each: 2/2, 1/1, 9/9, 1/1); whether robots see each other matters more (one
 team: 2 of 10 seeing, 8 of 10 blind).
 
-Numba caches the kernel keyed on this file: after changing a rule in task.py or controller.py, change this file
-too (as kernels.py says for its loops; even a comment, as this line was for the Khepera sensor model).
+Numba's cache of the kernel is keyed on this file and every project module it imports (mahn_envs.compile_cache), so
+a change to a rule in task.py or controller.py recompiles it.
 """
 from __future__ import annotations
 
