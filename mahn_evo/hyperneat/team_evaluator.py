@@ -1,8 +1,11 @@
 """Team evaluation through the batch core: a whole generation of CPPNs -> controllers -> fitness, in one call.
 
 Decoding is vectorised over the population (substrate.py) and the episodes run in the compiled parallel loop
-with the controllers inside, so a generation of 500 teams costs one kernel call.  What the evaluator does is one
-frozen record, `EvaluationSettings` (evaluation_settings.py); a training run builds it from its configuration
+with the controllers inside, so a generation of 500 teams costs one kernel call per episode.  Nothing is played
+twice: identical teams play once (`_distinct`), an episode a team played in the previous generation is remembered
+(`_play`; a noise-free episode on the map under any key), and robots that several teams share at the same place (a
+genome's mirror readings) play one robot episode (`_play_training`).  What the evaluator does is one frozen record,
+`EvaluationSettings` (evaluation_settings.py); a training run builds it from its configuration
 (`EvolutionConfig.evaluation`).
 """
 from __future__ import annotations
