@@ -29,7 +29,7 @@ from mahn_envs.maps.variants import spread_variant
 from mahn_envs.policies.team_controllers import TeamControllers
 
 from ..hyperneat.substrate import READINGS, team_reading
-from ..hyperneat.team_evaluator import TeamEvaluator
+from ..hyperneat.team_evaluator import CONTROLLER_FIELDS, TeamEvaluator
 from ..neat.population import Population
 from ..storage.files import atomic_write_json, read_checked_json, read_versioned_json, versioned
 from ..training.champion import Champion
@@ -127,13 +127,17 @@ def validate_final_population(run_dir: str | Path, episodes: int = 25, sequentia
     keys = [VALIDATION_KEY + i for i in range(episodes)]
     rows: list[dict[str, Any]] = []
     batches = {reading: team_reading(controllers, reading) for reading in readings}
-    for reading, batch in batches.items():
-        clean_fit, clean_solved = keyed_episodes(batch, config.map, clean, config.seed, [0])
-        fit, solved = keyed_episodes(batch, config.map, noisy, config.seed, keys)
+    # every reading in one batch: readings share robots, which then play once per episode (keyed_episodes)
+    every = TeamControllers(*(np.concatenate([getattr(batches[reading], f) for reading in readings])
+                              for f in CONTROLLER_FIELDS), controllers.decision)
+    all_clean_fit, all_clean_solved = keyed_episodes(every, config.map, clean, config.seed, [0])
+    all_fit, all_solved = keyed_episodes(every, config.map, noisy, config.seed, keys)
+    for a, reading in enumerate(readings):
         for i in range(len(genomes)):
-            rows.append({"index": i, "reading": reading, "noise_free_fitness": float(clean_fit[i, 0]),
-                         "noise_free_solved": bool(clean_solved[i, 0]),
-                         "solved_fraction": float(solved[i].mean()), "mean_fitness": float(fit[i].mean())})
+            row = a * len(genomes) + i
+            rows.append({"index": i, "reading": reading, "noise_free_fitness": float(all_clean_fit[row, 0]),
+                         "noise_free_solved": bool(all_clean_solved[row, 0]),
+                         "solved_fraction": float(all_solved[row].mean()), "mean_fitness": float(all_fit[row].mean())})
     rows.sort(key=lambda r: (not r["noise_free_solved"], -r["solved_fraction"], -r["mean_fitness"], r["index"],
                              readings.index(r["reading"])))
     gen = population.generation

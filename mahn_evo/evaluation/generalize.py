@@ -16,6 +16,7 @@ import numpy as np
 from mahn_envs.core import BatchSim, TaskParams
 from mahn_envs.policies.team_controllers import TeamControllers
 
+from ..hyperneat.team_evaluator import all_robots_mask, robot_episodes
 from ..storage.files import atomic_write_csv, atomic_write_json, versioned
 from ..training.champion import Champion
 from .task_setup import task_params
@@ -37,8 +38,21 @@ def solutions_of(run_dir: str | Path) -> list[Path]:
 def keyed_episodes(teams: TeamControllers, map: str, params: TaskParams, seed: int, keys: Sequence[int]
                    ) -> tuple[np.ndarray, np.ndarray]:
     """Fitness and solved, each (teams, len(keys)), of every team on the same keyed episodes (common random
-    numbers: team i's episode j is the same noise draw for every team), in one batch."""
+    numbers: team i's episode j is the same noise draw for every team), in one batch.  Teams that share robots at
+    the same places (a population's mirror readings) and are blind to each other play each shared robot once per
+    key (robot episodes, `BatchSim.score_teams`: the same numbers)."""
     n, k = teams.w_ih.shape[0], len(keys)
+    if not params.robots_see_each_other:
+        carriers, robots, src = robot_episodes(teams)
+        if len(carriers) < n or np.any(robots != all_robots_mask(teams.n_robots)):
+            sim = BatchSim(map, len(carriers) * k, params)
+            played = sim.run_robot_episodes(teams.map_arrays(lambda a: np.ascontiguousarray(a[np.repeat(carriers, k)])),
+                                            np.repeat(robots, k), seed=seed,
+                                            episode_keys=np.tile(np.asarray(keys, dtype=np.int64), len(carriers)))
+            # team t's episode j: its robot r from episode src[t, r] * k + j (carrier-major, keys within)
+            team_src = (src[:, None, :] * k + np.arange(k)[None, :, None]).reshape(n * k, teams.n_robots)
+            fit, ok, _ = sim.score_teams(played, team_src)
+            return fit.reshape(n, k), ok.reshape(n, k)
     sim = BatchSim(map, n * k, params)
     res = sim.run_controllers(teams.map_arrays(lambda a: np.repeat(a, k, axis=0)), seed=seed,
                               episode_keys=np.tile(np.asarray(keys, dtype=np.int64), n))

@@ -31,3 +31,30 @@ def test_ranks_archived_solutions(tmp_path):
 def test_missing_run_folder(tmp_path):
     with pytest.raises(ValueError, match="does not exist"):
         generalize(tmp_path / "nope")
+
+
+def test_keyed_episodes_of_teams_that_share_robots_equal_each_team_played_alone():
+    """Mirror readings share robots at the same places: keyed_episodes plays those once per key (robot episodes), and
+    every team's episode is still its own, bit for bit."""
+    import numpy as np
+
+    from mahn_envs.core import BatchSim
+    from mahn_envs.policies.team_controllers import TeamControllers
+    from mahn_evo.evaluation.generalize import keyed_episodes
+    from mahn_evo.evaluation.task_setup import task_params
+    from mahn_evo.hyperneat.substrate import READINGS, team_reading
+    from mahn_evo.hyperneat.team_evaluator import CONTROLLER_FIELDS
+
+    rng = np.random.default_rng(2)
+    painted = TeamControllers(*(rng.normal(0, 1.5, shape) for shape in ((4, 3, 2, 9, 7), (4, 3, 2, 9, 9),
+                                                                         (4, 3, 2, 3, 9), (4, 3, 2, 9), (4, 3, 2, 3))))
+    readings = [team_reading(painted, r) for r in READINGS]
+    teams = TeamControllers(*(np.concatenate([getattr(t, f) for t in readings]) for f in CONTROLLER_FIELDS))
+    params = task_params("generalization")
+    keys = [3, 8, 21]
+    fit, solved = keyed_episodes(teams, "plus", params, 5, keys)
+    for t in range(teams.w_ih.shape[0]):
+        for j, key in enumerate(keys):
+            res = BatchSim("plus", 1, params).run_controllers(teams.team(t), seed=5, episode_keys=[key])
+            assert fit[t, j] == res.fitness[0] and solved[t, j] == res.solved[0]
+    assert len(np.unique(fit)) > 6
