@@ -128,16 +128,17 @@ def validate_final_population(run_dir: str | Path, episodes: int = 25, sequentia
     rows: list[dict[str, Any]] = []
     batches = {reading: team_reading(controllers, reading) for reading in readings}
     # every reading in one batch: readings share robots, which then play once per episode (keyed_episodes)
-    every = TeamControllers(*(np.concatenate([getattr(batches[reading], f) for reading in readings])
-                              for f in CONTROLLER_FIELDS), controllers.decision)
+    w_ih, w_hh, w_ho, b_h, b_o = (np.concatenate([getattr(batches[reading], f) for reading in readings])
+                                  for f in CONTROLLER_FIELDS)
+    every = TeamControllers(w_ih, w_hh, w_ho, b_h, b_o, controllers.decision)
     all_clean_fit, all_clean_solved = keyed_episodes(every, config.map, clean, config.seed, [0])
     all_fit, all_solved = keyed_episodes(every, config.map, noisy, config.seed, keys)
     for a, reading in enumerate(readings):
         for i in range(len(genomes)):
-            row = a * len(genomes) + i
-            rows.append({"index": i, "reading": reading, "noise_free_fitness": float(all_clean_fit[row, 0]),
-                         "noise_free_solved": bool(all_clean_solved[row, 0]),
-                         "solved_fraction": float(all_solved[row].mean()), "mean_fitness": float(all_fit[row].mean())})
+            k = a * len(genomes) + i
+            rows.append({"index": i, "reading": reading, "noise_free_fitness": float(all_clean_fit[k, 0]),
+                         "noise_free_solved": bool(all_clean_solved[k, 0]),
+                         "solved_fraction": float(all_solved[k].mean()), "mean_fitness": float(all_fit[k].mean())})
     rows.sort(key=lambda r: (not r["noise_free_solved"], -r["solved_fraction"], -r["mean_fitness"], r["index"],
                              readings.index(r["reading"])))
     gen = population.generation
