@@ -43,11 +43,13 @@ def evaluate_run(run_dir: str | Path, maps: Sequence[str] = EVAL_MAPS,
     from .io import read_json
 
     if read_json(Path(run_dir) / "config.json").get("kind") == "lean_config":  # a `mahn-baselines lean` run
+        from .gru_kernel import limit_blas_threads
         from .lean_nets import LeanTeamPolicy
         from .lean_ppo import load_actor
 
         lean_cfg, actor = load_actor(run_dir, which)
         torch.set_num_threads(max(1, lean_cfg.torch_threads))
+        limit_blas_threads(lean_cfg.torch_threads)
         policy: TeamPolicy = LeanTeamPolicy(actor, lean_cfg.method, lean_cfg.frame_stack,
                                             deterministic=not stochastic, seed=seed)
         task_params = lean_cfg.task_params

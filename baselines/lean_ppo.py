@@ -35,6 +35,8 @@ from torch import nn
 
 from mahn_evo.storage.files import atomic_write_json, read_versioned_json, versioned
 
+from .allocator import keep_freed_memory
+from .gru_kernel import limit_blas_threads
 from .io import new_run_folder, write_csv
 from .lean_config import STOPPING_RULES, LeanConfig
 from .lean_nets import GRUNet, LeanTeamPolicy, build_networks, sample_actions, stack_frames
@@ -121,6 +123,8 @@ class LeanPPO:
 
     def __init__(self, cfg: LeanConfig, out: str | Path, resume: bool = False) -> None:
         torch.set_num_threads(cfg.torch_threads)
+        limit_blas_threads(cfg.torch_threads)  # the compiled GRU's per-tick products (gru_kernel)
+        keep_freed_memory()  # every minibatch reuses the last one's large buffers (allocator)
         self.cfg = cfg
         self.out = Path(out)
         self.env = PatrolReturnVecEnv(cfg.n_episodes, map=cfg.map, params=cfg.task_params,
