@@ -72,20 +72,6 @@ def gru_forward(gi, h0, w_hh_t, b_hh, hs, r, z, n, ghn):
 
 
 @njit(cache=True, error_model="numpy")
-def gru_states(gi, h0, w_hh_t, b_hh, hs):
-    """`gru_forward` without the gates (no gradient to take): a rollout's tick costs a call, not a graph."""
-    T, N, H3 = gi.shape
-    H = H3 // 3
-    hs[0] = h0
-    gh = np.empty((N, H3), dtype=np.float32)
-    for t in range(T):
-        np.dot(hs[t], w_hh_t, gh)
-        for i in range(N):
-            for j in range(H):
-                hs[t + 1, i, j] = _cell(gi[t, i], gh[i], b_hh, hs[t, i, j], H, j)[4]
-
-
-@njit(cache=True, error_model="numpy")
 def gru_backward(dy, dh, w_hh, hs, r, z, n, ghn, dgi, dgh):
     """The gradients of `gru_forward`: dy (T, N, H) of the outputs hs[1:], dh (N, H) of the last state (in; out:
     of h0), w_hh (3H, H) -> dgi and dgh (T, N, 3H), the gradients of gi and of gh = W_hh h + b_hh per tick."""
@@ -151,7 +137,9 @@ def gru_sequence(gru: nn.GRU, x: torch.Tensor, h: torch.Tensor) -> tuple[torch.T
     if torch.is_grad_enabled():
         out, last = GRURecurrence.apply(gi, h, w_hh, b_hh)
         return out, last
-    hs = torch.empty(T + 1, N, gru.hidden_size)
-    gru_states(gi.detach().contiguous().numpy(), h[0].detach().contiguous().numpy(),
-               w_hh.detach().t().contiguous().numpy(), b_hh.detach().contiguous().numpy(), hs.numpy())
+    # no gradient to take (a rollout's tick): the same loop, its gates into scratch
+    H = gru.hidden_size
+    hs, gates = torch.empty(T + 1, N, H), np.empty((4, T, N, H), dtype=np.float32)
+    gru_forward(gi.detach().contiguous().numpy(), h[0].detach().contiguous().numpy(),
+                w_hh.detach().t().contiguous().numpy(), b_hh.detach().contiguous().numpy(), hs.numpy(), *gates)
     return hs[1:], hs[T:]
