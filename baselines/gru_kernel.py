@@ -130,6 +130,9 @@ def gru_sequence(gru: nn.GRU, x: torch.Tensor, h: torch.Tensor) -> tuple[torch.T
     """`gru(x, h)` of a one-layer `nn.GRU` (x (T, N, in), h (1, N, H)) through the compiled recurrence."""
     if gru.num_layers != 1 or gru.bidirectional or gru.batch_first or not gru.bias:
         raise ValueError("gru_sequence runs one-layer, one-directional GRUs with biases on (T, N, in) inputs")
+    if x.dtype != torch.float32 or h.dtype != torch.float32 or gru.weight_hh_l0.dtype != torch.float32:
+        raise TypeError(f"gru_sequence computes in float32; got inputs {x.dtype}, state {h.dtype}, "
+                        f"weights {gru.weight_hh_l0.dtype}")
     p = dict(gru.named_parameters())  # typed as tensors (module attributes are Tensor | Module to mypy)
     w_ih, w_hh, b_ih, b_hh = p["weight_ih_l0"], p["weight_hh_l0"], p["bias_ih_l0"], p["bias_hh_l0"]
     T, N, _ = x.shape

@@ -77,6 +77,9 @@ def test_state_carries_across_ticks():
 def test_refuses_gru_it_does_not_implement():
     with pytest.raises(ValueError, match="one-layer"):
         gru_sequence(nn.GRU(3, 4, num_layers=2), torch.zeros(2, 1, 3), torch.zeros(2, 1, 4))
+    with pytest.raises(TypeError, match="float32"):
+        gru_sequence(nn.GRU(3, 4).double(), torch.zeros(2, 1, 3, dtype=torch.float64),
+                     torch.zeros(1, 1, 4, dtype=torch.float64))
 
 
 def test_allocator_setting_applies_on_linux():
