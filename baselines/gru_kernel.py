@@ -2,7 +2,7 @@
 
 Why: on one CPU thread, `nn.GRU` spends an IPPO-GRU update mostly in per-tick operator overhead.  An update
 runs 16 passes (actor and critic, 2 minibatches, 4 epochs) forward and backward over 682 ticks x 96 sequences
-of 64 units: 0.33 CPU-s a pass with `nn.GRU` (a hand-written backward in torch ops: the same), about 0.1 CPU-s
+of 64 units: 0.33 CPU-s a pass with `nn.GRU` (a hand-written backward in torch ops: the same), about 0.13 CPU-s
 here (`benchmarks/bench_rl.py`).  Each tick is one small matrix product (BLAS, numba's `np.dot`) and one
 loop over the units whose exponentials are the inlined, vectorised `expf` of `mahn_envs.core.expf`.
 
