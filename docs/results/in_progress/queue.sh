@@ -56,6 +56,10 @@ lane_a() {
 lane_b() {
   # issue 15: the standard mode of the hardened experiment (the robust table's 15 + 15)
   step python -m mahn_evo.cli experiment --out rob1000 --modes standard --runs 15 --seed 1 "${HARDENED[@]}" || return
+  # and its report (the situational page's options), once
+  [ -f rob1000/results.json ] || step python -m mahn_evo.cli experiment --out rob1000 --modes standard --runs 15 \
+      --seed 1 "${HARDENED[@]}" --report-only --final-validation 25 --final-sequential 1000 --final-family 20 \
+      --final-engine batch --general-from final_validation || return
   # issue 12: tuning, then the final runs (docs/baselines.md, "What remains to run")
   for m in ppo_ff ippo_gru mappo_gru; do
     step python -m baselines tune --method $m --trials 25 --steps 2e7 --out fair/tune_$m --threads 1 || return
