@@ -91,13 +91,18 @@ def _queue_commands() -> list[tuple[str, list[str]]]:
     import shlex
 
     text = (ROOT / "docs" / "results" / "in_progress" / "queue.sh").read_text().replace("\\\n", " ")
-    hardened = shlex.split(re.search(r"HARDENED=\((.*)\)", text).group(1))
+    arrays = {name: " ".join(shlex.split(re.search(rf"{name}=\(([^)]*)\)", text).group(1), comments=True))
+              for name in ("PLAN", "REPORT")}
+    arrays["HARDENED"] = arrays["PLAN"] + " --no-analysis"
     out = []
     for line in text.splitlines():
-        m = re.match(r"\s*step python -m (mahn_evo\.cli|baselines) (.*?)( \|\| return)?$", line)
+        m = re.match(r"(?:\s*|.*\|\| )step python -m (mahn_evo\.cli|baselines) (.*?)( \|\| return)?$", line)
         if m:
-            args = m.group(2).replace('"${HARDENED[@]}"', " ".join(hardened))
-            args = re.sub(r'"\$\(cat [^)]*\)"', "{}", args).replace("$m", "ppo_ff").replace("${m}", "ppo_ff")
+            args = m.group(2)
+            for name, value in arrays.items():
+                args = args.replace(f'"${{{name}[@]}}"', value)
+            args = re.sub(r'"\$\(cat [^)]*\)"', "{}", args).replace('"$steps"', "1e8")
+            args = args.replace('"$m"', "ppo_ff").replace("$m", "ppo_ff").replace("${m}", "ppo_ff")
             out.append((m.group(1), shlex.split(args.replace("$s", "0"))))
     return out
 
@@ -109,7 +114,9 @@ def test_every_step_of_the_queue_is_a_command_the_clis_accept():
     from mahn_evo.cli import build_parser as evo_parser
 
     steps = _queue_commands()
-    assert [p for p, _ in steps].count("mahn_evo.cli") == 3 and [p for p, _ in steps].count("baselines") == 3
+    # the two experiments, their reports and the robot-noise seeds; two tuning steps and the final runs
+    assert [p for p, _ in steps].count("mahn_evo.cli") == 5 and [p for p, _ in steps].count("baselines") == 3
     for program, args in steps:
         parser = evo_parser() if program == "mahn_evo.cli" else baselines_parser()
         parser.parse_args(args)  # SystemExit on an unknown option or a bad value
+        assert not {"--report-only", "--no-analysis"} <= set(args), f"a report step that reports nothing: {args}"

@@ -2,7 +2,8 @@
 # The project's long experiments in priority order, in two lanes of one core each, every step resumable: a session
 # starts this, stops it before it ends (`kill -TERM -- -$(cat RUNS_DIR/queue.pid)`: SIGTERM, since a script's
 # background jobs ignore SIGINT; runs keep their last finished generation), and parks what it ran (park.py park).
-# Parked experiments are restored first, run by run (a run further along here is kept).
+# Parked experiments are restored first, run by run (a run further along here is kept). A finished experiment's
+# report is made once (its results.json).
 #
 #   mkdir -p RUNS_DIR && setsid nohup bash docs/results/in_progress/queue.sh RUNS_DIR >> RUNS_DIR/queue.out 2>&1 < /dev/null &
 #
@@ -22,7 +23,8 @@ for m in ppo_ff ippo_gru mappo_gru; do  # issue 12's tuning journals (docs/resul
   kept="$HERE/../baselines/fair_runs/tune_$m/study.jsonl"
   if [ -f "$kept" ] && [ ! -f "fair/tune_$m/study.jsonl" ]; then mkdir -p "fair/tune_$m" && cp "$kept" "fair/tune_$m/"; fi
 done
-HARDENED=(--preset hardened-sequential --generations 1000 --after-solved 150 --workers 1 --no-analysis)
+PLAN=(--preset hardened-sequential --generations 1000 --after-solved 150 --workers 1)
+HARDENED=("${PLAN[@]}" --no-analysis)  # the runs; the report follows when all have finished
 # one core per lane: a run left to itself takes every core for its compiled loops, and two such runs on two cores
 # would share them four threads to two
 export NUMBA_NUM_THREADS=1
@@ -35,10 +37,32 @@ step() {  # run one step; 1 (end the lane) only when it was stopped
   return 0
 }
 
+REPORT=(--report-only --final-validation 25 --final-sequential 1000 --final-family 20 --final-engine batch
+        --general-from final_validation)  # experiment_hardened_sequential's report
+
+final_rl() {  # issue 12's final runs of one method on seeds 0-4 (docs/baselines.md), once its tuning has finished
+  local m=$1 steps=$2
+  if [ ! -f "fair/tune_$m/best.json" ]; then echo "$(date -u) no fair/tune_$m/best.json yet: $m's final runs wait"; return 0; fi
+  for s in 0 1 2 3 4; do
+    step python -m baselines lean --method "$m" --steps "$steps" --seed $s --out "fair/${m}_seed$s" --resume \
+        --hyperparams "$(cat "fair/tune_$m/best.json")" --threads 1 || return
+  done
+}
+
 lane_a() {
-  # issue 15: the protocol ranking's confirmation on fresh seeds (experiment_hardened_sequential's "Next")
+  # issue 15: the protocol ranking's confirmation on fresh seeds (experiment_hardened_sequential's "Next"), its
+  # report with the rule fixed in advance, and every run's pick through the transfer test (both rankings from it)
   step python -m mahn_evo.cli experiment --out rob1000_16 --modes situational --runs 15 --seed 16 "${HARDENED[@]}" \
     || return
+  [ -f rob1000_16/results.json ] || step python -m mahn_evo.cli experiment --out rob1000_16 --modes situational \
+      --runs 15 --seed 16 "${PLAN[@]}" "${REPORT[@]}" --general-rank protocol || return
+  if [ -f rob1000_16/results.json ] && [ ! -s rob1000_16/picks.jsonl ]; then
+    step python "$HERE/../experiment_hardened_sequential/picks_transfer.py" rob1000_16 > rob1000_16/picks.jsonl.tmp \
+      && mv rob1000_16/picks.jsonl.tmp rob1000_16/picks.jsonl || return
+  fi
+  # issue 12: the recurrent IPPO's tuning and final runs (the other methods run in lane B)
+  step python -m baselines tune --method ippo_gru --trials 25 --steps 2e7 --out fair/tune_ippo_gru --threads 1 || return
+  final_rl ippo_gru 1e8 || return
   # issue 15: experiment_robot's seeds not yet on its page
   step python -m mahn_evo.cli experiment --out robot15 --modes situational --runs 15 --seed 1 \
       --preset hardened-sequential --noise robot --generations 1000 --after-solved 300 --workers 1 --no-analysis \
@@ -54,24 +78,16 @@ lane_a() {
 }
 
 lane_b() {
-  # issue 15: the standard mode of the hardened experiment (the robust table's 15 + 15)
+  # issue 15: the standard mode of the hardened experiment (the robust table's 15 + 15), and its report, once
   step python -m mahn_evo.cli experiment --out rob1000 --modes standard --runs 15 --seed 1 "${HARDENED[@]}" || return
-  # and its report (the situational page's options), once
   [ -f rob1000/results.json ] || step python -m mahn_evo.cli experiment --out rob1000 --modes standard --runs 15 \
-      --seed 1 "${HARDENED[@]}" --report-only --final-validation 25 --final-sequential 1000 --final-family 20 \
-      --final-engine batch --general-from final_validation || return
-  # issue 12: tuning, then the final runs (docs/baselines.md, "What remains to run")
-  for m in ppo_ff ippo_gru mappo_gru; do
+      --seed 1 "${PLAN[@]}" "${REPORT[@]}" || return
+  # issue 12: tuning, then the final runs (docs/baselines.md, "What remains to run"); ippo_gru runs in lane A
+  for m in ppo_ff mappo_gru; do
     step python -m baselines tune --method $m --trials 25 --steps 2e7 --out fair/tune_$m --threads 1 || return
   done
-  for s in 0 1 2 3 4; do
-    step python -m baselines lean --method ppo_ff --steps 2e8 --seed $s --out fair/ppo_ff_seed$s --resume \
-        --hyperparams "$(cat fair/tune_ppo_ff/best.json)" --threads 1 || return
-    for m in ippo_gru mappo_gru; do
-      step python -m baselines lean --method $m --steps 1e8 --seed $s --out fair/${m}_seed$s --resume \
-          --hyperparams "$(cat fair/tune_$m/best.json)" --threads 1 || return
-    done
-  done
+  final_rl ppo_ff 2e8 || return
+  final_rl mappo_gru 1e8 || return
 }
 
 lane_a > lane_a.out 2>&1 &
