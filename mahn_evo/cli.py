@@ -441,8 +441,6 @@ def cmd_experiment(args) -> int:
     if args.only_seeds is not None and args.report_only:
         raise ValueError("--only-seeds says which runs to run; --report-only runs none (it reports on every run "
                          "finished in the folder)")
-    if args.no_analysis and args.report_only:
-        raise ValueError("--report-only makes only the report, which --no-analysis leaves out: give one of them")
     plan = experiment_plan(args)
     import signal
 

@@ -159,9 +159,6 @@ def test_small_experiment_end_to_end_and_report_only(tmp_path):
     stamps = [p.stat().st_mtime_ns for p in records]
     assert main(["experiment", "--report-only", "--final-family", "1", "--out", str(out)]) == 2
     assert stamps == [p.stat().st_mtime_ns for p in records]
-    # --no-analysis with --report-only would make nothing and say nothing: refused, nothing rewritten
-    assert main(["experiment", "--report-only", "--no-analysis", "--out", str(out)]) == 2
-    assert stamps == [p.stat().st_mtime_ns for p in records]
     assert ExperimentPlan.load(out) == replace(plan, final_validation=2, final_sequential=1)  # the plan unchanged
     # --final-engine batch validates again, the sequential stage in the compiled core; --general-from
     # final_validation transfers each run's pick (these runs have none: their archives' most general stand in)
