@@ -98,6 +98,13 @@ def gru_backward(dy, dh, w_hh, hs, r, z, n, ghn, dgi, dgh):
         dh += back
 
 
+def _run_forward(gi: torch.Tensor, h0: torch.Tensor, w_hh: torch.Tensor, b_hh: torch.Tensor, hs: torch.Tensor,
+                 r: np.ndarray, z: np.ndarray, n: np.ndarray, ghn: np.ndarray) -> None:
+    """`gru_forward` on torch tensors (h0 (1, N, H)): states into hs (T + 1, N, H), gates into r, z, n, ghn."""
+    gru_forward(gi.detach().contiguous().numpy(), h0[0].detach().contiguous().numpy(),
+                w_hh.detach().t().contiguous().numpy(), b_hh.detach().contiguous().numpy(), hs.numpy(), r, z, n, ghn)
+
+
 class GRURecurrence(torch.autograd.Function):
     """(gi (T, N, 3H), h0 (1, N, H), W_hh (3H, H), b_hh (3H,)) -> (outputs (T, N, H), last state (1, N, H))."""
 
@@ -107,9 +114,7 @@ class GRURecurrence(torch.autograd.Function):
         H = H3 // 3
         hs = torch.empty(T + 1, N, H)
         r, z, n, ghn = torch.empty(T, N, H), torch.empty(T, N, H), torch.empty(T, N, H), torch.empty(T, N, H)
-        gru_forward(gi.detach().contiguous().numpy(), h0[0].detach().contiguous().numpy(),
-                    w_hh.detach().t().contiguous().numpy(), b_hh.detach().contiguous().numpy(),
-                    hs.numpy(), r.numpy(), z.numpy(), n.numpy(), ghn.numpy())
+        _run_forward(gi, h0, w_hh, b_hh, hs, r.numpy(), z.numpy(), n.numpy(), ghn.numpy())
         ctx.save_for_backward(w_hh, hs, r, z, n, ghn)
         return hs[1:], hs[T:].clone()
 
@@ -143,6 +148,5 @@ def gru_sequence(gru: nn.GRU, x: torch.Tensor, h: torch.Tensor) -> tuple[torch.T
     # no gradient to take (a rollout's tick): the same loop, its gates into scratch
     H = gru.hidden_size
     hs, gates = torch.empty(T + 1, N, H), np.empty((4, T, N, H), dtype=np.float32)
-    gru_forward(gi.detach().contiguous().numpy(), h[0].detach().contiguous().numpy(),
-                w_hh.detach().t().contiguous().numpy(), b_hh.detach().contiguous().numpy(), hs.numpy(), *gates)
+    _run_forward(gi, h, w_hh, b_hh, hs, *gates)
     return hs[1:], hs[T:]
