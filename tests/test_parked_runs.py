@@ -60,6 +60,18 @@ def test_a_parked_experiment_resumes_elsewhere_to_the_same_runs(park, tmp_path):
     assert said == ["situational_s003: further along here (4 > 2 generations), left as it is"]
     assert _rows(tmp_path / "host2" / run) == _rows(tmp_path / "straight" / run)
     park.park(tmp_path / "host2", "exp")
+    # as far along here: a finished run's report files (written after it was parked) stay, and a parked file the
+    # folder lacks is copied in; the stop-49 restore replaced such a folder and lost its final validation
+    (tmp_path / "host2" / run / "final_validation.json").write_text("{}")
+    (tmp_path / "parked" / "exp" / run / "notes" / "extra.json").parent.mkdir()
+    (tmp_path / "parked" / "exp" / run / "notes" / "extra.json").write_text("[]")
+    said.clear()
+    park.restore("exp", tmp_path / "host2", log=said.append)
+    assert said == ["situational_s003: as far along here (4 generations), left as it is (1 parked file(s) it lacked "
+                    "copied)"]
+    assert (tmp_path / "host2" / run / "final_validation.json").read_text() == "{}"
+    assert (tmp_path / "host2" / run / "notes" / "extra.json").read_text() == "[]"
+    assert _rows(tmp_path / "host2" / run) == _rows(tmp_path / "straight" / run)
     said.clear()
     park.park(tmp_path / "host1", "exp", log=said.append)  # an older copy does not replace a newer parked one
     assert said == ["situational_s003: the parked copy is further along (4 > 2 generations): kept (--force "

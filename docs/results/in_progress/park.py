@@ -10,7 +10,8 @@ runs resume from their checkpoints bit for bit (the trainer's resume is exact, a
       not hold stays parked, and a parked run further along than the folder's is kept (--force replaces it);
       every checkpoint copied is read back through its digest, and a run in use (its lock held) is refused
   python docs/results/in_progress/park.py restore NAME EXPERIMENT_DIR
-      copy a parked experiment back, run by run; a run that is further along here, or in use, is left as it is
+      copy a parked experiment back, run by run; a run that is as far along here or further (its report files, such
+      as the final validation's, are not in the parked copy), or in use, is left as it is
   python docs/results/in_progress/park.py list
       each parked experiment's runs: generations, finished or not
 """
@@ -107,7 +108,24 @@ def restore(name: str, experiment: Path, log=print) -> None:
             if g_here > g_parked:
                 log(f"{run.name}: further along here ({g_here} > {g_parked} generations), left as it is")
                 continue
+            if g_here == g_parked:  # e.g. a finished run whose report files (final validation, picks) are here
+                added = _fill_missing(run, here)
+                log(f"{run.name}: as far along here ({g_here} generations), left as it is"
+                    + (f" ({added} parked file(s) it lacked copied)" if added else ""))
+                continue
         _copy_run(run, here)
+
+
+def _fill_missing(run: Path, here: Path) -> int:
+    """Copy the files of parked `run` that `here` lacks (never one it has); returns how many."""
+    added = 0
+    for path in sorted(run.rglob("*")):
+        target = here / path.relative_to(run)
+        if path.is_file() and not target.exists() and not any(path.match(p) for p in SKIPPED):
+            target.parent.mkdir(parents=True, exist_ok=True)
+            shutil.copy2(path, target)
+            added += 1
+    return added
 
 
 def listing() -> list[dict]:
