@@ -2,6 +2,7 @@
 that exists and nothing that does not (so a move or a new module shows up here until the page is updated)."""
 from __future__ import annotations
 
+import importlib.util
 import re
 from pathlib import Path
 
@@ -94,8 +95,6 @@ def test_architecture_folder_rows_name_every_module_inside():
 
 def _robot_rows_module():
     """docs/results/experiment_robot/rows.py, loaded as a module (it is a script, not a package module)."""
-    import importlib.util
-
     spec = importlib.util.spec_from_file_location("experiment_robot_rows",
                                                   ROOT / "docs" / "results" / "experiment_robot" / "rows.py")
     rows_py = importlib.util.module_from_spec(spec)
@@ -137,3 +136,14 @@ def test_the_robot_experiment_ranking_is_made_from_its_rows_and_picks():
     rows = [json.loads(line) for line in (folder / "runs.jsonl").read_text().splitlines() if line.strip()]
     table = rows_py.ranking_table(rows_py.ranking(rows, folder / "champions"), len(rows))
     assert table in (folder / "README.md").read_text()
+
+
+def test_the_side_by_side_table_is_made_from_the_pages():
+    """docs/results/README.md quotes side_by_side.py's table (the paper beside the faithful and robust 15 + 15
+    experiments, read from the pages' results.json), word for word."""
+    spec = importlib.util.spec_from_file_location("side_by_side", ROOT / "docs" / "results" / "side_by_side.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    table = module.table()
+    assert "| robust (" in table and "15/15 | 436.3 (305.1) | 3/15 | 1.1e-05" in table
+    assert table in (ROOT / "docs" / "results" / "README.md").read_text()
