@@ -34,6 +34,7 @@ import torch
 from torch import nn
 
 from mahn_evo.storage.files import atomic_write_json, read_versioned_json, versioned
+from mahn_evo.storage.folder_lock import folder_lock
 
 from .allocator import keep_freed_memory
 from .gru_kernel import limit_blas_threads
@@ -481,4 +482,5 @@ def train(cfg: LeanConfig, out: str | Path, resume: bool = False,
           on_update: Callable[[dict[str, Any]], None] | None = None) -> dict[str, Any]:
     """Run (or, with resume=True and a checkpoint in `out`, continue) a lean PPO run; returns the summary."""
     has_ckpt = (Path(out) / "checkpoint.json").exists()
-    return LeanPPO(cfg, out, resume=resume and has_ckpt).run(on_update)
+    with folder_lock(out, "lean PPO run folder"):  # one writer per run (a second would interleave its updates)
+        return LeanPPO(cfg, out, resume=resume and has_ckpt).run(on_update)

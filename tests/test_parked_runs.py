@@ -131,3 +131,40 @@ def test_every_step_of_the_queue_is_a_command_the_clis_accept():
     for program, args in steps:
         parser = evo_parser() if program == "mahn_evo.cli" else baselines_parser()
         parser.parse_args(args)  # SystemExit on an unknown option or a bad value
+
+
+def test_a_parked_lean_run_resumes_elsewhere_to_the_same_run(park, tmp_path):
+    """Issue 12's lean PPO runs parked after 1 of 3 updates, restored in another folder and resumed: the same
+    updates as the run made straight through; a run in use, or with damaged weights, is never parked."""
+    pytest.importorskip("torch")
+    from baselines.lean_config import LeanConfig
+    from baselines.lean_ppo import train
+
+    base = dict(method="ppo_ff", seed=3, max_cycles=60, signal_tick=30, n_episodes=2, hidden=8, eval_maps=["plus"])
+    per_update = 2 * 3 * 60
+    train(LeanConfig(steps=3 * per_update, **base), tmp_path / "straight" / "ppo_ff_seed3")
+    train(LeanConfig(steps=1 * per_update, **base), tmp_path / "host1" / "ppo_ff_seed3")
+    (tmp_path / "host1" / "tune_ppo_ff").mkdir()  # a tuning folder is not a lean run: left out
+    park.park_lean(tmp_path / "host1", "fair")
+    assert [row for row in park.listing() if "lean_runs" in row] == [
+        {"lean_runs": "fair", "run": "ppo_ff_seed3", "updates": 1, "finished": True}]
+    park.restore_lean("fair", tmp_path / "host2", log=_quiet)
+    run = tmp_path / "host2" / "ppo_ff_seed3"
+    train(LeanConfig(steps=3 * per_update, **base), run, resume=True)
+    a = json.loads((tmp_path / "straight" / "ppo_ff_seed3" / "checkpoint.json").read_text())
+    b = json.loads((run / "checkpoint.json").read_text())
+    timing = ("wall_time", "cpu_seconds", "robot_steps_per_second")
+    assert b["update"] == 3 and a["rng"] == b["rng"]
+    assert [{k: v for k, v in r.items() if k not in timing} for r in a["train_rows"]] == \
+        [{k: v for k, v in r.items() if k not in timing} for r in b["train_rows"]]
+    said: list[str] = []
+    park.restore_lean("fair", tmp_path / "host2", log=said.append)  # further along here: left as it is
+    assert said == ["ppo_ff_seed3: further along here (3 > 1 updates), left as it is"]
+    with folder_lock(run):
+        with pytest.raises(ValueError, match=r"\['ppo_ff_seed3'\] .* are in use"):
+            park.park_lean(tmp_path / "host2", "fair")
+    weights = run / b["weights"]
+    weights.write_bytes(weights.read_bytes()[:-40])  # a truncated weights file
+    with pytest.raises(ValueError, match="weights"):
+        park.park_lean(tmp_path / "host2", "fair")
+    assert park.updates(tmp_path / "parked" / "fair" / "ppo_ff_seed3") == 1  # the parked copy is untouched

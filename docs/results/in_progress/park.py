@@ -12,8 +12,13 @@ runs resume from their checkpoints bit for bit (the trainer's resume is exact, a
   python docs/results/in_progress/park.py restore NAME EXPERIMENT_DIR
       copy a parked experiment back, run by run; a run that is as far along here or further (its report files, such
       as the final validation's, are not in the parked copy), or in use, is left as it is
+  python docs/results/in_progress/park.py park-lean FOLDER [NAME]
+  python docs/results/in_progress/park.py restore-lean NAME FOLDER
+      the same for issue 12's lean PPO runs (`mahn-baselines lean --out FOLDER/RUN`: the run folders directly in
+      FOLDER, default NAME the folder's name), their progress counted in updates; the tuning studies are kept
+      apart (docs/results/baselines/fair_runs/)
   python docs/results/in_progress/park.py list
-      each parked experiment's runs: generations, finished or not
+      each parked experiment's runs: generations, finished or not; each parked lean run's updates
 """
 from __future__ import annotations
 
@@ -21,11 +26,13 @@ import json
 import re
 import shutil
 import sys
+import zipfile
+from collections.abc import Callable
 from pathlib import Path
 
 from mahn_evo.experiment.plan import PLAN_FILE, ExperimentPlan
 from mahn_evo.experiment.table import load_runs
-from mahn_evo.storage.files import read_checked_json
+from mahn_evo.storage.files import read_checked_json, read_versioned_json
 from mahn_evo.storage.folder_lock import lock_holder
 
 HERE = Path(__file__).resolve().parent
@@ -43,6 +50,37 @@ def generations(run: Path) -> int:
     return int(read_checked_json(ckpt, "checkpoint")["population"]["generation"])
 
 
+def updates(run: Path) -> int:
+    """Updates a lean PPO run folder has finished (0 without a checkpoint); a damaged checkpoint, or one whose
+    weights file is missing or unreadable, is an error."""
+    ckpt = run / "checkpoint.json"
+    if not ckpt.exists():
+        return 0
+    state = read_versioned_json(ckpt, "lean_checkpoint")
+    weights = run / str(state["weights"])
+    try:
+        with zipfile.ZipFile(weights) as z:  # an .npz: every member read back through its CRC
+            bad = z.testzip()
+    except (OSError, zipfile.BadZipFile) as exc:
+        raise ValueError(f"lean run {str(run)!r}: its weights {weights.name} cannot be read ({exc})") from exc
+    if bad is not None:
+        raise ValueError(f"lean run {str(run)!r}: its weights {weights.name} are damaged ({bad})")
+    return int(state["update"])
+
+
+def lean_runs(folder: Path) -> list[Path]:
+    """The lean PPO run folders directly in `folder` (config.json of kind lean_config)."""
+    out = []
+    for p in sorted(folder.iterdir()) if folder.is_dir() else []:
+        try:
+            kind = json.loads((p / "config.json").read_text(encoding="utf-8")).get("kind")
+        except (OSError, ValueError, AttributeError):
+            continue
+        if kind == "lean_config" and not p.name.startswith("."):
+            out.append(p)
+    return out
+
+
 def runs(experiment: Path) -> list[Path]:
     """The run folders of an experiment (not a staged copy left by an interrupted park or restore)."""
     if not (experiment / "runs").is_dir():
@@ -56,13 +94,13 @@ def parked_folder(name: str) -> Path:
     return HERE / name
 
 
-def _copy_run(run: Path, target: Path) -> None:
+def _copy_run(run: Path, target: Path, progress: Callable[[Path], int] | None = None) -> None:
     """Copy a run folder over `target` through a staged copy whose checkpoint is read back first."""
     staged = target.parent / f".{target.name}.staged"
     shutil.rmtree(staged, ignore_errors=True)
     shutil.copytree(run, staged, ignore=shutil.ignore_patterns(*SKIPPED))
     try:
-        generations(staged)
+        (progress or generations)(staged)
     except ValueError:
         shutil.rmtree(staged)
         raise
@@ -128,6 +166,53 @@ def _fill_missing(run: Path, here: Path) -> int:
     return added
 
 
+def park_lean(folder: Path, name: str, force: bool = False, log=print) -> Path:
+    """`park` for the lean PPO runs in `folder`: progress in updates, a run in use refused."""
+    target = parked_folder(name)
+    found = lean_runs(folder)
+    if not found:
+        raise ValueError(f"{str(folder)!r} holds no lean PPO run folder")
+    busy = [run.name for run in found if lock_holder(run) is not None]
+    if busy:
+        raise ValueError(f"run(s) {busy} of {str(folder)!r} are in use: stop them before parking")
+    target.mkdir(parents=True, exist_ok=True)
+    for run in found:
+        kept = target / run.name
+        if kept.exists() and not force:
+            u_kept, u_run = updates(kept), updates(run)
+            if u_kept > u_run:
+                log(f"{run.name}: the parked copy is further along ({u_kept} > {u_run} updates): kept (--force "
+                    "replaces it)")
+                continue
+        _copy_run(run, kept, updates)
+    return target
+
+
+def restore_lean(name: str, folder: Path, log=print) -> None:
+    """`restore` for parked lean PPO runs: a run further along here, as far along (the parked files it lacks
+    copied in), or in use, is left as it is."""
+    found = lean_runs(parked_folder(name))
+    if not found:
+        raise ValueError(f"no parked lean PPO runs {name!r} in {HERE}")
+    folder.mkdir(parents=True, exist_ok=True)
+    for run in found:
+        here = folder / run.name
+        if here.exists() and lock_holder(here) is not None:
+            log(f"{run.name}: in use here, left as it is")
+            continue
+        if here.exists():
+            u_here, u_parked = updates(here), updates(run)
+            if u_here > u_parked:
+                log(f"{run.name}: further along here ({u_here} > {u_parked} updates), left as it is")
+                continue
+            if u_here == u_parked:  # e.g. a finished run archived from here (files the parked copy lacks)
+                added = _fill_missing(run, here)
+                log(f"{run.name}: as far along here ({u_here} updates), left as it is"
+                    + (f" ({added} parked file(s) it lacked copied)" if added else ""))
+                continue
+        _copy_run(run, here, updates)
+
+
 def listing() -> list[dict]:
     """Every parked run, finished or not by its experiment's plan (mahn_evo.experiment.table.load_runs)."""
     out = []
@@ -136,6 +221,10 @@ def listing() -> list[dict]:
             if record.folder.exists():
                 out.append({"experiment": exp.name, "run": record.name, "generations": generations(record.folder),
                             "finished": record.finished})
+    for folder in sorted(p for p in HERE.iterdir() if NAME.fullmatch(p.name) and not (p / PLAN_FILE).exists()):
+        for run in lean_runs(folder):
+            out.append({"lean_runs": folder.name, "run": run.name, "updates": updates(run),
+                        "finished": (run / "summary.json").exists()})
     return out
 
 
@@ -149,6 +238,13 @@ def main(argv: list[str]) -> int:
             return 0
         if len(argv) == 3 and argv[0] == "restore" and not force:
             restore(argv[1], Path(argv[2]))
+            return 0
+        if len(argv) in (2, 3) and argv[0] == "park-lean":
+            folder = Path(argv[1])
+            print(park_lean(folder, argv[2] if len(argv) == 3 else folder.resolve().name, force))
+            return 0
+        if len(argv) == 3 and argv[0] == "restore-lean" and not force:
+            restore_lean(argv[1], Path(argv[2]))
             return 0
         if argv == ["list"] and not force:
             for row in listing():

@@ -19,6 +19,7 @@ echo $$ > queue.pid  # the process group to stop: this script leads it (started 
 for name in rob1000_16 rob1000 robot15; do
   [ -d "$HERE/$name" ] && python "$HERE/park.py" restore "$name" "$name"
 done
+[ -d "$HERE/fair" ] && python "$HERE/park.py" restore-lean fair fair  # issue 12's lean PPO runs (park-lean)
 for m in ppo_ff ippo_gru mappo_gru; do  # issue 12's tuning journals (docs/results/baselines/fair_runs/README.md)
   kept="$HERE/../baselines/fair_runs/tune_$m/study.jsonl"
   if [ -f "$kept" ] && [ ! -f "fair/tune_$m/study.jsonl" ]; then mkdir -p "fair/tune_$m" && cp "$kept" "fair/tune_$m/"; fi
