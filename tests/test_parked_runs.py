@@ -126,8 +126,8 @@ def test_every_step_of_the_queue_is_a_command_the_clis_accept():
     from mahn_evo.cli import build_parser as evo_parser
 
     steps = _queue_commands()
-    # the two experiments, their reports and the robot-noise seeds; two tuning steps and the final runs
-    assert [p for p, _ in steps].count("mahn_evo.cli") == 5 and [p for p, _ in steps].count("baselines") == 3
+    # the confirmation, its report and the robot-noise seeds; two tuning steps and the final runs
+    assert [p for p, _ in steps].count("mahn_evo.cli") == 3 and [p for p, _ in steps].count("baselines") == 3
     for program, args in steps:
         parser = evo_parser() if program == "mahn_evo.cli" else baselines_parser()
         parser.parse_args(args)  # SystemExit on an unknown option or a bad value

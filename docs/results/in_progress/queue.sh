@@ -16,7 +16,7 @@ RUNS=${1:-runs}
 if [ -d "${PYTHONPATH:-}" ]; then export PYTHONPATH=$(cd "$PYTHONPATH" && pwd); fi  # absolute, before the cd below
 mkdir -p "$RUNS" && cd "$RUNS"
 echo $$ > queue.pid  # the process group to stop: this script leads it (started with setsid)
-for name in rob1000_16 rob1000 robot15; do
+for name in rob1000_16 robot15; do
   [ -d "$HERE/$name" ] && python "$HERE/park.py" restore "$name" "$name"
 done
 [ -d "$HERE/fair" ] && python "$HERE/park.py" restore-lean fair fair  # issue 12's lean PPO runs (park-lean)
@@ -79,10 +79,6 @@ lane_a() {
 }
 
 lane_b() {
-  # issue 15: the standard mode of the hardened experiment (the robust table's 15 + 15), and its report, once
-  step python -m mahn_evo.cli experiment --out rob1000 --modes standard --runs 15 --seed 1 "${HARDENED[@]}" || return
-  [ -f rob1000/results.json ] || step python -m mahn_evo.cli experiment --out rob1000 --modes standard --runs 15 \
-      --seed 1 "${PLAN[@]}" "${REPORT[@]}" || return
   # issue 12: tuning, then the final runs (docs/baselines.md, "What remains to run"); ippo_gru runs in lane A
   for m in ppo_ff mappo_gru; do
     step python -m baselines tune --method $m --trials 25 --steps 2e7 --out fair/tune_$m --threads 1 || return
