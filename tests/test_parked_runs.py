@@ -5,6 +5,7 @@ from __future__ import annotations
 import csv
 import importlib.util
 import json
+import shutil
 from pathlib import Path
 
 import pytest
@@ -168,3 +169,42 @@ def test_a_parked_lean_run_resumes_elsewhere_to_the_same_run(park, tmp_path):
     with pytest.raises(ValueError, match="weights"):
         park.park_lean(tmp_path / "host2", "fair")
     assert park.updates(tmp_path / "parked" / "fair" / "ppo_ff_seed3") == 1  # the parked copy is untouched
+
+
+def test_park_all_parks_what_a_session_ran(park, tmp_path, monkeypatch):
+    """The session's closing step: experiments parked before are parked again (one never parked is named, not
+    parked), the lean PPO runs of fair/ are parked, and the tuning journals kept unless the kept one is longer."""
+    pytest.importorskip("torch")
+    from baselines.lean_config import LeanConfig
+    from baselines.lean_ppo import train
+
+    monkeypatch.setattr(park, "TUNING", tmp_path / "fair_runs")
+    host = tmp_path / "runs"
+    plan = ExperimentPlan(**SMALL)
+    plan.save_or_check(host / "exp")
+    [(_, seed, folder)] = plan.tasks(host / "exp")
+    t = Trainer(plan.train_config("situational", seed), folder)
+    t.step()
+    t._write_log()
+    t._checkpoint()
+    park.park(host / "exp", "exp")
+    shutil.copytree(host / "exp", host / "other")
+    t.step()
+    t._write_log()
+    t._checkpoint()
+    train(LeanConfig(method="ppo_ff", seed=3, max_cycles=60, signal_tick=30, n_episodes=2, hidden=8,
+                     eval_maps=["plus"], steps=360), host / "fair" / "ppo_ff_seed3")
+    for name, lines in (("tune_ppo_ff", 3), ("tune_mappo_gru", 2)):
+        (host / "fair" / name).mkdir()
+        (host / "fair" / name / "study.jsonl").write_text("{}\n" * lines)
+    (tmp_path / "fair_runs" / "tune_mappo_gru").mkdir(parents=True)
+    (tmp_path / "fair_runs" / "tune_mappo_gru" / "study.jsonl").write_text("{}\n" * 5)  # further along
+    said: list[str] = []
+    park.park_all(host, log=said.append)
+    assert "other: not parked before (park it by name once, if it is to be kept)" in said
+    assert "tune_mappo_gru: the kept journal is further along (5 > 2 lines): kept" in said
+    rows = park.listing()
+    assert [(r.get("experiment"), r.get("generations")) for r in rows if "experiment" in r] == [("exp", 2)]
+    assert [(r["run"], r["updates"]) for r in rows if "lean_runs" in r] == [("ppo_ff_seed3", 1)]
+    assert (tmp_path / "fair_runs" / "tune_ppo_ff" / "study.jsonl").read_text() == "{}\n" * 3
+    assert (tmp_path / "fair_runs" / "tune_mappo_gru" / "study.jsonl").read_text() == "{}\n" * 5

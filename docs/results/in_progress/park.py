@@ -17,6 +17,11 @@ runs resume from their checkpoints bit for bit (the trainer's resume is exact, a
       the same for issue 12's lean PPO runs (`mahn-baselines lean --out FOLDER/RUN`: the run folders directly in
       FOLDER, default NAME the folder's name), their progress counted in updates; the tuning studies are kept
       apart (docs/results/baselines/fair_runs/)
+  python docs/results/in_progress/park.py park-all RUNS_DIR
+      what a session parks before it stops, in one step: every experiment of RUNS_DIR that is parked already (a new
+      one is parked the first time by name), the lean PPO runs of RUNS_DIR/fair, and the tuning journals of
+      RUNS_DIR/fair/tune_* into docs/results/baselines/fair_runs/ (a journal with fewer lines than the kept one,
+      e.g. a fresh host's, is never copied over it)
   python docs/results/in_progress/park.py list
       each parked experiment's runs: generations, finished or not; each parked lean run's updates
 """
@@ -213,6 +218,46 @@ def restore_lean(name: str, folder: Path, log=print) -> None:
         _copy_run(run, here, updates)
 
 
+#: issue 12's tuning studies, kept as their journals (docs/results/baselines/fair_runs/README.md)
+TUNING = HERE.parent / "baselines" / "fair_runs"
+TUNING_FILES = ("study.jsonl", "best.json", "tuning_cost.json")
+
+
+def park_tuning(fair: Path, log=print) -> list[Path]:
+    """Copy each RUNS/fair/tune_*/ journal (and its best.json, tuning_cost.json) into TUNING, unless the kept
+    journal has more lines (trials recorded) than this one; returns the files written."""
+    written = []
+    for study in sorted(fair.glob("tune_*/study.jsonl")):
+        kept = TUNING / study.parent.name
+        lines = len(study.read_text(encoding="utf-8").splitlines())
+        if (kept / "study.jsonl").exists():
+            kept_lines = len((kept / "study.jsonl").read_text(encoding="utf-8").splitlines())
+            if kept_lines > lines:
+                log(f"{study.parent.name}: the kept journal is further along ({kept_lines} > {lines} lines): kept")
+                continue
+        kept.mkdir(parents=True, exist_ok=True)
+        for name in TUNING_FILES:
+            if (study.parent / name).exists():
+                shutil.copy2(study.parent / name, kept / name)
+                written.append(kept / name)
+    return written
+
+
+def park_all(runs_dir: Path, log=print) -> None:
+    """`park` every experiment of runs_dir already parked, `park_lean` its fair/ runs, `park_tuning` its
+    journals: the session's closing step."""
+    for exp in sorted(p for p in runs_dir.iterdir() if (p / PLAN_FILE).exists()):
+        if (HERE / exp.name / PLAN_FILE).exists():
+            log(f"parked {park(exp, exp.name, log=log)}")
+        else:
+            log(f"{exp.name}: not parked before (park it by name once, if it is to be kept)")
+    fair = runs_dir / "fair"
+    if lean_runs(fair):
+        log(f"parked {park_lean(fair, 'fair', log=log)}")
+    for path in park_tuning(fair, log=log):
+        log(f"kept {path}")
+
+
 def listing() -> list[dict]:
     """Every parked run, finished or not by its experiment's plan (mahn_evo.experiment.table.load_runs)."""
     out = []
@@ -245,6 +290,9 @@ def main(argv: list[str]) -> int:
             return 0
         if len(argv) == 3 and argv[0] == "restore-lean" and not force:
             restore_lean(argv[1], Path(argv[2]))
+            return 0
+        if len(argv) == 2 and argv[0] == "park-all" and not force:
+            park_all(Path(argv[1]))
             return 0
         if argv == ["list"] and not force:
             for row in listing():
