@@ -99,13 +99,13 @@ def parked_folder(name: str) -> Path:
     return HERE / name
 
 
-def _copy_run(run: Path, target: Path, progress: Callable[[Path], int] | None = None) -> None:
+def _copy_run(run: Path, target: Path, progress: Callable[[Path], int]) -> None:
     """Copy a run folder over `target` through a staged copy whose checkpoint is read back first."""
     staged = target.parent / f".{target.name}.staged"
     shutil.rmtree(staged, ignore_errors=True)
     shutil.copytree(run, staged, ignore=shutil.ignore_patterns(*SKIPPED))
     try:
-        (progress or generations)(staged)
+        progress(staged)
     except ValueError:
         shutil.rmtree(staged)
         raise
@@ -113,50 +113,46 @@ def _copy_run(run: Path, target: Path, progress: Callable[[Path], int] | None = 
     staged.rename(target)
 
 
-def park(experiment: Path, name: str, force: bool = False, log=print) -> Path:
-    target = parked_folder(name)
-    if not (experiment / PLAN_FILE).exists():
-        raise ValueError(f"{str(experiment)!r} holds no experiment ({PLAN_FILE} missing)")
-    busy = [run.name for run in runs(experiment) if lock_holder(run) is not None]
+def _park_runs(found: list[Path], target: Path, progress: Callable[[Path], int], unit: str, force: bool,
+               log) -> None:
+    """Copy each run of `found` into target/<name>, unless the parked copy is further along (`force` replaces
+    it); `progress` counts a run's checkpointed steps in `unit` (and checks the checkpoint)."""
+    busy = [run.name for run in found if lock_holder(run) is not None]
     if busy:
-        raise ValueError(f"run(s) {busy} of {str(experiment)!r} are in use: stop the experiment before parking it")
-    (target / "runs").mkdir(parents=True, exist_ok=True)
-    shutil.copy2(experiment / PLAN_FILE, target / PLAN_FILE)
-    for run in runs(experiment):
-        kept = target / "runs" / run.name
+        raise ValueError(f"run(s) {busy} of {str(found[0].parent)!r} are in use: stop them before parking")
+    target.mkdir(parents=True, exist_ok=True)
+    for run in found:
+        kept = target / run.name
         if kept.exists() and not force:
-            g_kept, g_run = generations(kept), generations(run)  # each checkpoint read (and checked) once
-            if g_kept > g_run:
-                log(f"{run.name}: the parked copy is further along ({g_kept} > {g_run} generations): kept "
-                    "(--force replaces it)")
+            p_kept, p_run = progress(kept), progress(run)  # each checkpoint read (and checked) once
+            if p_kept > p_run:
+                log(f"{run.name}: the parked copy is further along ({p_kept} > {p_run} {unit}): kept (--force "
+                    "replaces it)")
                 continue
-        _copy_run(run, kept)
-    return target
+        _copy_run(run, kept, progress)
 
 
-def restore(name: str, experiment: Path, log=print) -> None:
-    source = parked_folder(name)
-    if not (source / PLAN_FILE).exists():
-        raise ValueError(f"no parked experiment {name!r} in {HERE}")
-    (experiment / "runs").mkdir(parents=True, exist_ok=True)
-    if not (experiment / PLAN_FILE).exists():
-        shutil.copy2(source / PLAN_FILE, experiment / PLAN_FILE)
-    for run in runs(source):
-        here = experiment / "runs" / run.name
+def _restore_runs(found: list[Path], dest: Path, progress: Callable[[Path], int], unit: str, log) -> None:
+    """Copy each parked run of `found` into dest/<name>, but for a run in use here, one further along (left as it
+    is) and one as far along (left as it is, the parked files it lacks copied in: e.g. the report's final
+    validation of a finished run is here, not in its parked copy)."""
+    dest.mkdir(parents=True, exist_ok=True)
+    for run in found:
+        here = dest / run.name
         if here.exists() and lock_holder(here) is not None:
             log(f"{run.name}: in use here, left as it is")
             continue
         if here.exists():
-            g_here, g_parked = generations(here), generations(run)  # each checkpoint read (and checked) once
-            if g_here > g_parked:
-                log(f"{run.name}: further along here ({g_here} > {g_parked} generations), left as it is")
+            p_here, p_parked = progress(here), progress(run)  # each checkpoint read (and checked) once
+            if p_here > p_parked:
+                log(f"{run.name}: further along here ({p_here} > {p_parked} {unit}), left as it is")
                 continue
-            if g_here == g_parked:  # e.g. a finished run whose report files (final validation, picks) are here
+            if p_here == p_parked:
                 added = _fill_missing(run, here)
-                log(f"{run.name}: as far along here ({g_here} generations), left as it is"
+                log(f"{run.name}: as far along here ({p_here} {unit}), left as it is"
                     + (f" ({added} parked file(s) it lacked copied)" if added else ""))
                 continue
-        _copy_run(run, here)
+        _copy_run(run, here, progress)
 
 
 def _fill_missing(run: Path, here: Path) -> int:
@@ -171,51 +167,44 @@ def _fill_missing(run: Path, here: Path) -> int:
     return added
 
 
+def park(experiment: Path, name: str, force: bool = False, log=print) -> Path:
+    target = parked_folder(name)
+    if not (experiment / PLAN_FILE).exists():
+        raise ValueError(f"{str(experiment)!r} holds no experiment ({PLAN_FILE} missing)")
+    found = runs(experiment)
+    if found:
+        _park_runs(found, target / "runs", generations, "generations", force, log)
+    (target / "runs").mkdir(parents=True, exist_ok=True)
+    shutil.copy2(experiment / PLAN_FILE, target / PLAN_FILE)
+    return target
+
+
+def restore(name: str, experiment: Path, log=print) -> None:
+    source = parked_folder(name)
+    if not (source / PLAN_FILE).exists():
+        raise ValueError(f"no parked experiment {name!r} in {HERE}")
+    (experiment / "runs").mkdir(parents=True, exist_ok=True)
+    if not (experiment / PLAN_FILE).exists():
+        shutil.copy2(source / PLAN_FILE, experiment / PLAN_FILE)
+    _restore_runs(runs(source), experiment / "runs", generations, "generations", log)
+
+
 def park_lean(folder: Path, name: str, force: bool = False, log=print) -> Path:
     """`park` for the lean PPO runs in `folder`: progress in updates, a run in use refused."""
-    target = parked_folder(name)
     found = lean_runs(folder)
     if not found:
         raise ValueError(f"{str(folder)!r} holds no lean PPO run folder")
-    busy = [run.name for run in found if lock_holder(run) is not None]
-    if busy:
-        raise ValueError(f"run(s) {busy} of {str(folder)!r} are in use: stop them before parking")
-    target.mkdir(parents=True, exist_ok=True)
-    for run in found:
-        kept = target / run.name
-        if kept.exists() and not force:
-            u_kept, u_run = updates(kept), updates(run)
-            if u_kept > u_run:
-                log(f"{run.name}: the parked copy is further along ({u_kept} > {u_run} updates): kept (--force "
-                    "replaces it)")
-                continue
-        _copy_run(run, kept, updates)
+    target = parked_folder(name)
+    _park_runs(found, target, updates, "updates", force, log)
     return target
 
 
 def restore_lean(name: str, folder: Path, log=print) -> None:
-    """`restore` for parked lean PPO runs: a run further along here, as far along (the parked files it lacks
-    copied in), or in use, is left as it is."""
+    """`restore` for parked lean PPO runs (see _restore_runs)."""
     found = lean_runs(parked_folder(name))
     if not found:
         raise ValueError(f"no parked lean PPO runs {name!r} in {HERE}")
-    folder.mkdir(parents=True, exist_ok=True)
-    for run in found:
-        here = folder / run.name
-        if here.exists() and lock_holder(here) is not None:
-            log(f"{run.name}: in use here, left as it is")
-            continue
-        if here.exists():
-            u_here, u_parked = updates(here), updates(run)
-            if u_here > u_parked:
-                log(f"{run.name}: further along here ({u_here} > {u_parked} updates), left as it is")
-                continue
-            if u_here == u_parked:  # e.g. a finished run archived from here (files the parked copy lacks)
-                added = _fill_missing(run, here)
-                log(f"{run.name}: as far along here ({u_here} updates), left as it is"
-                    + (f" ({added} parked file(s) it lacked copied)" if added else ""))
-                continue
-        _copy_run(run, here, updates)
+    _restore_runs(found, folder, updates, "updates", log)
 
 
 #: issue 12's tuning studies, kept as their journals (docs/results/baselines/fair_runs/README.md)
