@@ -147,3 +147,18 @@ def test_the_side_by_side_table_is_made_from_the_pages():
     table = module.table()
     assert "| robust (" in table and "15/15 | 436.3 (305.1) | 3/15 | 1.1e-05" in table
     assert table in (ROOT / "docs" / "results" / "README.md").read_text()
+
+
+def test_the_confirmation_table_is_made_from_its_record():
+    """experiment_hardened_sequential/README.md quotes confirmation.py's table and verdict of confirmation.json,
+    word for word, and the verdict is the one the page states (4 of 5 by the rule fixed in advance)."""
+    import json
+
+    folder = ROOT / "docs" / "results" / "experiment_hardened_sequential"
+    spec = importlib.util.spec_from_file_location("confirmation", folder / "confirmation.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    data = json.loads((folder / "confirmation" / "confirmation.json").read_text())
+    verdict = module.verdict(data)
+    assert verdict["confirmed"] and verdict["protocol"]["robust"] == 4 and verdict["generalization"]["robust"] == 3
+    assert module.table(data) in (folder / "README.md").read_text()

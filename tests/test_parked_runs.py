@@ -104,9 +104,11 @@ def _queue_commands() -> list[tuple[str, list[str]]]:
     import shlex
 
     text = (ROOT / "docs" / "results" / "in_progress" / "queue.sh").read_text().replace("\\\n", " ")
-    arrays = {name: " ".join(shlex.split(re.search(rf"{name}=\(([^)]*)\)", text).group(1), comments=True))
-              for name in ("PLAN", "REPORT")}
-    arrays["HARDENED"] = arrays["PLAN"] + " --no-analysis"
+    arrays = {m.group(1): " ".join(shlex.split(m.group(2), comments=True))  # NAME=(...) arrays, as bash fills them
+              for m in re.finditer(r"^(\w+)=\(([^)]*)\)", text, flags=re.M)}
+    for name in list(arrays):
+        for other, inner in list(arrays.items()):
+            arrays[name] = arrays[name].replace(f'"${{{other}[@]}}"', inner)
     out = []
     for line in text.splitlines():
         m = re.match(r"(?:\s*|.*\|\| )step python -m (mahn_evo\.cli|baselines) (.*?)( \|\| return)?$", line)
@@ -127,8 +129,8 @@ def test_every_step_of_the_queue_is_a_command_the_clis_accept():
     from mahn_evo.cli import build_parser as evo_parser
 
     steps = _queue_commands()
-    # the confirmation, its report and the robot-noise seeds; two tuning steps and the final runs
-    assert [p for p, _ in steps].count("mahn_evo.cli") == 3 and [p for p, _ in steps].count("baselines") == 3
+    # the robot-noise seeds; issue 12's tuning steps (IPPO in lane A, the others in lane B) and final runs
+    assert [p for p, _ in steps].count("mahn_evo.cli") == 1 and [p for p, _ in steps].count("baselines") == 3
     for program, args in steps:
         parser = evo_parser() if program == "mahn_evo.cli" else baselines_parser()
         parser.parse_args(args)  # SystemExit on an unknown option or a bad value

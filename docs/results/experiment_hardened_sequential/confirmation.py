@@ -85,7 +85,7 @@ def table(data: dict[str, Any]) -> str:
     for i, e in enumerate(data["rankings"]["protocol"], 1):
         run = data["runs"][e["run"]]
         pick, first = run["pick"], run["first_solution"]
-        tested = run.get("tested")
+        tested = run.get("tested") or (pick if pick and pick.get("pick") else None)  # every pick was tested
         if tested is None:
             transfer = ""
         else:

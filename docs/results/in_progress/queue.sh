@@ -16,7 +16,7 @@ RUNS=${1:-runs}
 if [ -d "${PYTHONPATH:-}" ]; then export PYTHONPATH=$(cd "$PYTHONPATH" && pwd); fi  # absolute, before the cd below
 mkdir -p "$RUNS" && cd "$RUNS"
 echo $$ > queue.pid  # the process group to stop: this script leads it (started with setsid)
-for name in rob1000_16 robot15; do
+for name in robot15; do
   [ -d "$HERE/$name" ] && python "$HERE/park.py" restore "$name" "$name"
 done
 [ -d "$HERE/fair" ] && python "$HERE/park.py" restore-lean fair fair  # issue 12's lean PPO runs (park-lean)
@@ -24,8 +24,6 @@ for m in ppo_ff ippo_gru mappo_gru; do  # issue 12's tuning journals (docs/resul
   kept="$HERE/../baselines/fair_runs/tune_$m/study.jsonl"
   if [ -f "$kept" ] && [ ! -f "fair/tune_$m/study.jsonl" ]; then mkdir -p "fair/tune_$m" && cp "$kept" "fair/tune_$m/"; fi
 done
-PLAN=(--preset hardened-sequential --generations 1000 --after-solved 150 --workers 1)
-HARDENED=("${PLAN[@]}" --no-analysis)  # the runs; the report follows when all have finished
 # one core per lane: a run left to itself takes every core for its compiled loops, and two such runs on two cores
 # would share them four threads to two
 export NUMBA_NUM_THREADS=1
@@ -38,9 +36,6 @@ step() {  # run one step; 1 (end the lane) only when it was stopped
   return 0
 }
 
-REPORT=(--report-only --final-validation 25 --final-sequential 1000 --final-family 20 --final-engine batch
-        --general-from final_validation)  # experiment_hardened_sequential's report
-
 final_rl() {  # issue 12's final runs of one method on seeds 0-4 (docs/baselines.md), once its tuning has finished
   local m=$1 steps=$2
   if [ ! -f "fair/tune_$m/best.json" ]; then echo "$(date -u) no fair/tune_$m/best.json yet: $m's final runs wait"; return 0; fi
@@ -51,16 +46,6 @@ final_rl() {  # issue 12's final runs of one method on seeds 0-4 (docs/baselines
 }
 
 lane_a() {
-  # issue 15: the protocol ranking's confirmation on fresh seeds (experiment_hardened_sequential's "Next"), its
-  # report with the rule fixed in advance, and every run's pick through the transfer test (both rankings from it)
-  step python -m mahn_evo.cli experiment --out rob1000_16 --modes situational --runs 15 --seed 16 "${HARDENED[@]}" \
-    || return
-  [ -f rob1000_16/results.json ] || step python -m mahn_evo.cli experiment --out rob1000_16 --modes situational \
-      --runs 15 --seed 16 "${PLAN[@]}" "${REPORT[@]}" --general-rank protocol || return
-  if [ -f rob1000_16/results.json ] && [ ! -s rob1000_16/picks.jsonl ]; then
-    step python "$HERE/../experiment_hardened_sequential/picks_transfer.py" rob1000_16 > rob1000_16/picks.jsonl.tmp \
-      && mv rob1000_16/picks.jsonl.tmp rob1000_16/picks.jsonl || return
-  fi
   # issue 12: the recurrent IPPO's tuning and final runs (the other methods run in lane B)
   step python -m baselines tune --method ippo_gru --trials 25 --steps 2e7 --out fair/tune_ippo_gru --threads 1 || return
   final_rl ippo_gru 1e8 || return
