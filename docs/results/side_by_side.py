@@ -12,6 +12,8 @@ from typing import Any
 
 from scipy.stats import fisher_exact
 
+from mahn_evo.experiment.transfer import robust_on_every_map  # the report's robustness rule, not a copy of it
+
 HERE = Path(__file__).resolve().parent
 #: the paper's Table I (15 runs per mode; mean and sd of generations to the first solution) and its transfer test:
 #: the five most general situational teams on real robots, both maps
@@ -35,11 +37,6 @@ def _results(page: str) -> dict[str, Any]:
     return json.loads((HERE / page / "results.json").read_text(encoding="utf-8"))
 
 
-def _robust(entry: dict[str, Any]) -> bool:
-    """At least 8 of 10 noisy sequential episodes succeed on both maps (issue 15's robustness test)."""
-    return all(entry["transfer"][m]["sequential_noisy"]["success_fraction"] >= 0.8 for m in ("plus", "asymmetric_plus"))
-
-
 def row(label: str, command: str, pages: tuple[str, ...]) -> str:
     first = _results(pages[0])
     standard = (_results(pages[1]) if len(pages) > 1 else first)["table"].get("standard")
@@ -56,7 +53,7 @@ def row(label: str, command: str, pages: tuple[str, ...]) -> str:
             f"{sit['generations_mean']:.1f} ({sit['generations_sd']:.1f}) | {standard_solved} | {p_text} | {seeds} | "
             f"{sum(e['general_solved_fraction'] for e in general) / len(general):.2f} | "
             f"{sum(bool(e['transfer'].get('transfers')) for e in general)}/{len(general)} | "
-            f"**{sum(_robust(e) for e in general)}/{len(general)}** |")
+            f"**{sum(robust_on_every_map(e['transfer']) for e in general)}/{len(general)}** |")
 
 
 def table() -> str:
