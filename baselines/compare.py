@@ -7,6 +7,15 @@ Both sides report the best team found so far, scored on the training map: evolut
 (its champion so far), and for RL the greedy policy of the best checkpoint so far (`eval_log.csv`).  Solved rate =
 fraction of seeds whose best-so-far team solves the task by that budget.
 
+A lean PPO run is also read as its sampling policy, the stochastic policy PPO trains (method `<method>_sampled`,
+`sampled_curve`): the mean team fitness of each update's training episodes (`train_log.csv`, whole episodes of the
+training map played by the policy as it was before that update; their robot-steps are part of the budget, as an
+evolution run's evaluations are), best so far, and solved once at least `SAMPLED_SOLVED_RATE` of one update's
+episodes solve the task.  Why: PPO's greedy argmax is not the policy it optimises, and on this task the two differ
+widely (the feed-forward tuning's best trial: a sampling policy of mean team fitness 15.5 over its last updates,
+its greedy policy 2.1, about the all-forward team's 2.0), so reporting only the greedy one would understate RL.
+It costs nothing: those episodes are the rollouts the run trained on.
+
 Compute-matched curves (``comparison_cpu.png``) put the same best-so-far values against the seconds each run
 spent: the process CPU-seconds that lean PPO, CMA-ES and NEAT-direct runs log (``cpu_seconds``), and for
 HyperNEAT runs the summed per-generation ``seconds`` of their `log.csv` (the wall time of a run that has a core
@@ -106,6 +115,42 @@ def rl_curve(run_dir: str | Path) -> Curve:
     b, f, s, c = _best_so_far([float(r["steps"]) for r in rows], [float(r[f"fitness_{m}"]) for r in rows],
                               [_truthy(r[f"solved_{m}"]) for r in rows], _cpu_column(rows, f"{run_dir}/eval_log.csv"))
     return Curve(cfg["algo"], cfg["seed"], b, f, s, str(run_dir), cpu=c)
+
+
+#: a sampling policy counts as solving the task once at least this fraction of one update's training episodes solve it
+SAMPLED_SOLVED_RATE = 0.5
+#: the lean PPO training log's columns a sampling-policy curve reads (`baselines.lean_ppo.TRAIN_FIELDS`)
+SAMPLED_COLUMNS = ("steps", "fitness_mean", "solved_rate")
+
+
+def sampled_curve(run_dir: str | Path) -> Curve | None:
+    """A lean PPO run's sampling policy (see the module docstring), or None for a run that has no training log of
+    whole-episode rollouts (SB3 runs)."""
+    run_dir = Path(run_dir)
+    cfg = read_json(run_dir / "config.json")
+    path = run_dir / "train_log.csv"
+    if cfg.get("kind") != "lean_config" or not path.is_file():
+        return None
+    rows = read_csv(path)
+    if not rows:
+        return None
+    missing = set(SAMPLED_COLUMNS) - set(rows[0])
+    if missing:
+        raise ValueError(f"{path} lacks column(s) {sorted(missing)}")
+    try:
+        steps = [float(r["steps"]) for r in rows]
+        fitness = [float(r["fitness_mean"]) for r in rows]
+        solved = [float(r["solved_rate"]) >= SAMPLED_SOLVED_RATE for r in rows]
+    except ValueError as e:
+        raise ValueError(f"{path}: a value is not a number ({e})") from None
+    b, f, s, c = _best_so_far(steps, fitness, solved, _cpu_column(rows, str(path)))
+    return Curve(f"{cfg['algo']}_sampled", cfg["seed"], b, f, s, str(run_dir), cpu=c)
+
+
+def rl_curves(run_dir: str | Path) -> list[Curve]:
+    """Every curve of an RL run: its greedy policy (`rl_curve`) and, for a lean PPO run, its sampling policy."""
+    sampled = sampled_curve(run_dir)
+    return [rl_curve(run_dir)] + ([sampled] if sampled is not None else [])
 
 
 def evo_curve(run_dir: str | Path, ticks: int = TICKS, robots: int = ROBOTS) -> Curve:
@@ -264,7 +309,7 @@ def compare(rl_runs: Sequence[str | Path], evo_runs: Sequence[str | Path], out: 
             points: int = 12, published: Sequence[Curve] = ()) -> dict[str, Any]:
     """Read runs (and take `published` curves as they are), write comparison.{csv,md,json,png} into `out`; returns
     the JSON payload."""
-    curves = [rl_curve(d) for d in rl_runs] + [evo_curve(d) for d in evo_runs] + list(published)
+    curves = [c for d in rl_runs for c in rl_curves(d)] + [evo_curve(d) for d in evo_runs] + list(published)
     if not curves:
         raise ValueError("nothing to compare: give RL run directories and/or --evo-runs")
     out = Path(out)

@@ -16,8 +16,9 @@ Run folder (resumable: `train(..., resume=True)` continues bit-identically):
   checkpoint_uNNNNNN.npz the state dicts of actor, critic and optimiser as plain arrays (weights_npz.py: no pickle;
                          runs written before it have checkpoint_uNNNNNN.pt, still read, tensors only)
   best_actor.npz         the actor with the best greedy training-map fitness so far (+ best.json)
-  eval_log.csv           greedy team fitness / solved on every eval map (the comparison curves)
-  train_log.csv          per update: training-episode fitness, losses, entropy, KL, robot-steps/s
+  eval_log.csv           greedy team fitness / solved on every eval map (the comparison's greedy curves)
+  train_log.csv          per update: training-episode fitness (the sampling policy's: the comparison's
+                         `<method>_sampled` curves), losses, entropy, KL, robot-steps/s
   summary.json           at the end
 """
 from __future__ import annotations
@@ -442,9 +443,19 @@ class LeanPPO:
                    "final": {k: v for k, v in rows[-1].items() if k.startswith(("fitness_", "solved_"))},
                    "best": {k: v for k, v in best_row.items() if k.startswith(("fitness_", "solved_"))},
                    "best_at_steps": best_row["steps"],
-                   "first_solved_steps": next((r["steps"] for r in rows if r.get(f"solved_{m}")), None)}
+                   "first_solved_steps": next((r["steps"] for r in rows if r.get(f"solved_{m}")), None),
+                   # the sampling policy PPO trains, as baselines.compare.sampled_curve reads it: its best update
+                   "best_sampled": _best_sampled(self.train_rows)}
         atomic_write_json(self.out / "summary.json", summary)
         return summary
+
+
+def _best_sampled(train_rows: list[dict[str, Any]]) -> dict[str, Any] | None:
+    """The update whose training episodes (played by the sampling policy) had the best mean team fitness."""
+    if not train_rows:
+        return None
+    best = max(train_rows, key=lambda r: r["fitness_mean"])
+    return {"fitness_mean": best["fitness_mean"], "solved_rate": best["solved_rate"], "steps": best["steps"]}
 
 
 def load_actor(run_dir: str | Path, which: str = "best") -> tuple[LeanConfig, nn.Module]:

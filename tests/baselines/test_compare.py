@@ -7,7 +7,7 @@ import math
 import pytest
 
 from baselines.cli import main
-from baselines.compare import compare, evo_budget, evo_curve, rl_curve
+from baselines.compare import SAMPLED_SOLVED_RATE, compare, evo_budget, evo_curve, rl_curve, sampled_curve
 from baselines.io import read_csv, write_csv, write_json
 
 
@@ -134,3 +134,34 @@ def test_published_curves_join_a_comparison_as_they_were(tmp_path) -> None:
     (tmp_path / "bad.json").write_text('{"curves": [{"method": "x", "budget": [1, 2], "fitness": [1]}]}')
     with pytest.raises(ValueError, match="curve 0 is malformed|different or zero lengths"):
         published_curves(tmp_path / "bad.json")
+
+
+def _lean_run(root, seed, eval_rows, train_rows):
+    """A lean PPO run folder as `mahn-baselines lean` writes its logs: greedy evaluations and training updates."""
+    d = root / f"ippo_gru_seed{seed}"
+    write_json(d / "config.json", {"kind": "lean_config", "algo": "ippo_gru", "method": "ippo_gru", "seed": seed,
+                                   "map": "plus"})
+    write_csv(d / "eval_log.csv", ["steps", "cpu_seconds", "fitness_plus", "solved_plus"],
+              [{"steps": s, "cpu_seconds": s / 1000, "fitness_plus": f, "solved_plus": 0} for s, f in eval_rows])
+    write_csv(d / "train_log.csv", ["update", "steps", "cpu_seconds", "fitness_mean", "solved_rate"],
+              [{"update": u + 1, "steps": s, "cpu_seconds": s / 1000, "fitness_mean": f, "solved_rate": r}
+               for u, (s, f, r) in enumerate(train_rows)])
+    return d
+
+
+def test_a_lean_run_is_read_as_its_greedy_and_its_sampling_policy(tmp_path) -> None:
+    run = _lean_run(tmp_path, 0, [(0, 2.0), (1000, 2.1), (2000, 2.0)],
+                    [(1000, 9.0, 0.1), (2000, 15.0, SAMPLED_SOLVED_RATE), (3000, 12.0, 0.2)])
+    c = sampled_curve(run)
+    assert c is not None and c.method == "ippo_gru_sampled" and c.seed == 0
+    assert list(c.budget) == [1000, 2000, 3000] and list(c.fitness) == [9.0, 15.0, 15.0]  # best so far
+    assert list(c.solved) == [0.0, 1.0, 1.0]  # half of one update's episodes solved: solved from then on
+    assert list(c.cpu) == [1.0, 2.0, 3.0]
+    assert sampled_curve(_rl_run(tmp_path, "ppo", 0, [(0, 1.0, 0)])) is None  # an SB3 run: greedy only
+    payload = compare([run], [], tmp_path / "out", points=4)
+    table = {r["method"]: r for r in payload["table"]}
+    assert table["ippo_gru"]["fitness_max"] == 2.1 and table["ippo_gru"]["solved_rate"] == 0.0
+    assert table["ippo_gru_sampled"]["fitness_max"] == 15.0 and table["ippo_gru_sampled"]["solved_rate"] == 1.0
+    write_csv(run / "train_log.csv", ["update", "steps"], [{"update": 1, "steps": 1000}])
+    with pytest.raises(ValueError, match="fitness_mean"):
+        sampled_curve(run)

@@ -12,7 +12,7 @@ import pytest
 
 pytest.importorskip("torch")
 
-from baselines.compare import rl_curve  # noqa: E402
+from baselines.compare import rl_curve, sampled_curve  # noqa: E402
 from baselines.lean_config import LeanConfig  # noqa: E402
 from baselines.lean_ppo import train  # noqa: E402
 
@@ -44,6 +44,12 @@ def test_a_finished_lean_run_is_kept_and_an_unfinished_one_refused(archive, tmp_
     assert (kept_curve.method, kept_curve.seed) == ("ppo_ff", 3)
     for field in ("budget", "fitness", "solved", "cpu"):
         np.testing.assert_array_equal(getattr(kept_curve, field), getattr(run_curve, field))
+    kept_sampled, run_sampled = sampled_curve(kept), sampled_curve(run)  # and its sampling policy
+    assert kept_sampled is not None and run_sampled is not None and kept_sampled.method == "ppo_ff_sampled"
+    for field in ("budget", "fitness", "solved", "cpu"):
+        np.testing.assert_array_equal(getattr(kept_sampled, field), getattr(run_sampled, field))
+    best = json.loads((run / "summary.json").read_text())["best_sampled"]
+    assert best["fitness_mean"] == pytest.approx(run_sampled.fitness[-1]) and "sampling policy: best mean" in row
     # a run whose budget was raised and not yet reached is not finished
     config = json.loads((run / "config.json").read_text())
     (run / "config.json").write_text(json.dumps({**config, "steps": 10 * 360}))

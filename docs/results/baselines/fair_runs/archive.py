@@ -57,6 +57,10 @@ def lean_row(name: str, summary: dict, config: dict, commit: str) -> str:
     what = (f"solved first at {first:,} robot-steps" if first is not None else "not solved") + (
         f", best greedy fitness {summary['best'][f'fitness_{m}']:.2f} (at {summary['best_at_steps']:,} robot-steps), "
         f"final {summary['final'][f'fitness_{m}']:.2f}; {summary['steps']:,} robot-steps")
+    sampled = summary.get("best_sampled")  # runs finished before it was summarised lack it (compare reads the log)
+    if sampled:
+        what += (f"; sampling policy: best mean team fitness {sampled['fitness_mean']:.2f}, solved rate "
+                 f"{sampled['solved_rate']:.2f} (at {sampled['steps']:,} robot-steps)")
     return f"| [`{name}/`]({name}/) | {cmd} | {what} | {summary['cpu_seconds']:.0f} |"
 
 
