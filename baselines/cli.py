@@ -74,8 +74,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="training (signal at tick 690) and/or sequential (needs mahn_evo.evaluation.protocols)")
     e.add_argument("--episodes", type=int, default=1, help="episodes per map and protocol (default %(default)s)")
     e.add_argument("--seed", type=int, default=0, help="seed of the evaluation episodes (default %(default)s)")
-    e.add_argument("--model", choices=("best", "final"), default="best",
-                   help="the best checkpoint seen during training or the last one (default %(default)s)")
+    e.add_argument("--model", choices=("best", "final", "best_sampled"), default="best",
+                   help="the best checkpoint seen during training or the last one, or (lean runs) the actor whose "
+                        "sampled rollout scored best: use it with --stochastic (default %(default)s)")
     e.add_argument("--stochastic", action="store_true", help="sample actions instead of the greedy policy")
     e.add_argument("--json", action="store_true", help="print the results as JSON")
 

@@ -22,7 +22,7 @@ def model_path(run_dir: str | Path, which: str = "best") -> Path:
     """`best` (best training-map fitness seen during training; falls back to final) or `final`."""
     run_dir = Path(run_dir)
     if which not in ("best", "final"):
-        raise ValueError(f"which must be 'best' or 'final', got {which!r}")
+        raise ValueError(f"which must be 'best' or 'final' for an SB3 run (best_sampled: lean runs), got {which!r}")
     best = run_dir / "best_model.zip"
     path = best if which == "best" and best.exists() else run_dir / "model.zip"
     if not path.exists():
@@ -54,7 +54,8 @@ def evaluate_run(run_dir: str | Path, maps: Sequence[str] = EVAL_MAPS,
                                             deterministic=not stochastic, seed=seed)
         task_params = lean_cfg.task_params
         results: dict[str, Any] = {"run": str(run_dir), "algo": lean_cfg.method, "seed": lean_cfg.seed,
-                                   "model": "best_actor.npz" if which == "best" else "last checkpoint",
+                                   "model": {"best": "best_actor.npz", "best_sampled": "best_sampled_actor.npz"}
+                                   .get(which, "last checkpoint"),
                                    "deterministic": not stochastic, "episodes": episodes, "eval_seed": seed,
                                    "recurrent": lean_cfg.recurrent, "protocols": {}}
     else:

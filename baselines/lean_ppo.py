@@ -16,6 +16,8 @@ Run folder (resumable: `train(..., resume=True)` continues bit-identically):
   checkpoint_uNNNNNN.npz the state dicts of actor, critic and optimiser as plain arrays (weights_npz.py: no pickle;
                          runs written before it have checkpoint_uNNNNNN.pt, still read, tensors only)
   best_actor.npz         the actor with the best greedy training-map fitness so far (+ best.json)
+  best_sampled_actor.npz the actor whose sampled rollout had the best mean team fitness so far (+ best_sampled.json):
+                         the sampling policy PPO trains, for `evaluate --which best_sampled --stochastic`
   eval_log.csv           greedy team fitness / solved on every eval map (the comparison's greedy curves)
   train_log.csv          per update: training-episode fitness (the sampling policy's: the comparison's
                          `<method>_sampled` curves), losses, entropy, KL, robot-steps/s
@@ -145,6 +147,7 @@ class LeanPPO:
         self.wall = 0.0
         self.cpu = 0.0  #: CPU-seconds of this process (all threads): the compute-matched budget axis
         self.best = -math.inf
+        self.best_sampled = -math.inf  #: the best mean team fitness of a rollout (the sampling policy's)
         self.eval_rows: list[dict[str, Any]] = []
         self.train_rows: list[dict[str, Any]] = []
         self.weights_file: str | None = None
@@ -169,6 +172,7 @@ class LeanPPO:
                  "rng": self.rng.bit_generator.state, "value_norm": self.value_norm.state(),
                  "wall_seconds": self.wall,
                  "cpu_seconds": self.cpu, "best": None if not math.isfinite(self.best) else self.best,
+                 "best_sampled": None if not math.isfinite(self.best_sampled) else self.best_sampled,
                  "eval_rows": self.eval_rows, "train_rows": self.train_rows}
         atomic_write_json(self.out / "checkpoint.json", versioned("lean_checkpoint", state))
         if self.weights_file is not None and self.weights_file != name:
@@ -200,6 +204,9 @@ class LeanPPO:
             self.wall = float(data["wall_seconds"])
             self.cpu = float(data["cpu_seconds"])
             self.best = -math.inf if data["best"] is None else float(data["best"])
+            # absent from checkpoints written before it: the best sampled actor is kept from the resume on
+            sampled = data.get("best_sampled")
+            self.best_sampled = -math.inf if sampled is None else float(sampled)
             self.eval_rows = data["eval_rows"]
             self.train_rows = data["train_rows"]
         except (KeyError, TypeError, ValueError) as exc:
@@ -394,6 +401,7 @@ class LeanPPO:
     def step(self) -> dict[str, Any]:
         t0, c0 = time.perf_counter(), time.process_time()
         buf = self.rollout()
+        self._keep_best_sampled(float(buf.fitness.mean()))
         stats = self.learn(buf)
         self.update += 1
         seconds = time.perf_counter() - t0
@@ -408,6 +416,18 @@ class LeanPPO:
         if self.cfg.eval_every == 0 or self.update % self.cfg.eval_every == 0:
             self.evaluate()
         return row
+
+    def _keep_best_sampled(self, fitness: float) -> None:
+        """After a rollout, before learning from it: the actor that played it, if its episodes' mean team fitness
+        is the best so far.  Why: the sampling policy is the one PPO optimises, and its argmax (best_actor.npz) can
+        be far worse; this keeps the sampled policy's best for the tests of evolved teams (stochastic evaluation)."""
+        if fitness <= self.best_sampled:
+            return
+        self.best_sampled = fitness
+        save_weights(self.out / "best_sampled_actor.npz", {"actor": self.actor.state_dict()})
+        atomic_write_json(self.out / "best_sampled.json", versioned("lean_best_sampled", {
+            "method": self.cfg.method, "update": self.update + 1, "steps": self.steps + self.steps_per_update,
+            "trained_steps": self.steps, "fitness_mean": round(fitness, 6)}))
 
     def _write_logs(self) -> None:
         maps = self.cfg.eval_maps
@@ -459,7 +479,8 @@ def _best_sampled(train_rows: list[dict[str, Any]]) -> dict[str, Any] | None:
 
 
 def load_actor(run_dir: str | Path, which: str = "best") -> tuple[LeanConfig, nn.Module]:
-    """The actor of a run (`best`: best_actor.npz, `final`: the last checkpoint's)."""
+    """The actor of a run (`best`: best_actor.npz, the best greedy policy; `best_sampled`: best_sampled_actor.npz,
+    the best sampling policy; `final`: the last checkpoint's)."""
     run_dir = Path(run_dir)
     data = read_versioned_json(run_dir / "config.json", "lean_config")
     cfg = LeanConfig.from_dict(data)
@@ -469,10 +490,15 @@ def load_actor(run_dir: str | Path, which: str = "best") -> tuple[LeanConfig, nn
         path = run_dir / "best_actor.npz"
         if not path.exists() and (run_dir / "best_actor.pt").exists():
             path = run_dir / "best_actor.pt"  # a run written before the NPZ format
+    elif which == "best_sampled":
+        path = run_dir / "best_sampled_actor.npz"
+        if not path.exists():
+            raise FileNotFoundError(f"{str(run_dir)!r} has no best_sampled_actor.npz (runs written before it keep "
+                                    "only best_actor.npz and their last checkpoint)")
     elif which == "final":
         path = run_dir / read_versioned_json(run_dir / "checkpoint.json", "lean_checkpoint")["weights"]
     else:
-        raise ValueError(f"which must be 'best' or 'final', got {which!r}")
+        raise ValueError(f"which must be 'best', 'best_sampled' or 'final', got {which!r}")
     actor.load_state_dict(_read_weights(path)["actor"])
     return cfg, actor
 

@@ -107,7 +107,7 @@ def test_resume_continues_bit_identically(tmp_path, method):
     train(LeanConfig(steps=3 * per_update, **base), tmp_path / "resumed", resume=True)
     a = json.loads((tmp_path / "straight" / "checkpoint.json").read_text())
     b = json.loads((tmp_path / "resumed" / "checkpoint.json").read_text())
-    assert a["update"] == b["update"] == 3 and a["rng"] == b["rng"]
+    assert a["update"] == b["update"] == 3 and a["rng"] == b["rng"] and a["best_sampled"] == b["best_sampled"]
     timing = ("wall_time", "cpu_seconds", "robot_steps_per_second")
     def strip(rows):
         return [{k: v for k, v in r.items() if k not in timing} for r in rows]
@@ -188,3 +188,43 @@ def test_eval_scores_a_lean_run_with_the_shared_protocols(tmp_path):
     assert res["algo"] == "ippo_gru" and res["recurrent"]
     assert res["protocols"]["training"]["plus"]["fitness"] == pytest.approx(best, abs=1e-6)
     assert (tmp_path / "run" / "eval.json").exists()
+
+
+def test_the_best_sampled_actor_is_the_one_that_played_its_rollout(tmp_path):
+    """best_sampled_actor.npz holds the weights that played the best-scoring rollout, i.e. those of the run after
+    one update fewer (training is deterministic), and survives a resume from a checkpoint that predates it."""
+    from baselines.evaluate import evaluate_run
+
+    base = dict(method="ppo_ff", seed=2, max_cycles=60, signal_tick=30, n_episodes=2, hidden=8, lr=3e-3,
+                eval_maps=["plus"])
+    per_update = 2 * 3 * 60
+    train(LeanConfig(steps=4 * per_update, **base), tmp_path / "run")
+    rows = json.loads((tmp_path / "run" / "checkpoint.json").read_text())["train_rows"]
+    k = max(range(len(rows)), key=lambda i: rows[i]["fitness_mean"])  # first best: its update is k + 1
+    kept = json.loads((tmp_path / "run" / "best_sampled.json").read_text())
+    assert kept["update"] == k + 1 and kept["fitness_mean"] == pytest.approx(rows[k]["fitness_mean"], abs=1e-6)
+    summary = json.loads((tmp_path / "run" / "summary.json").read_text())
+    assert summary["best_sampled"]["steps"] == kept["steps"] == (k + 1) * per_update
+    if k == 0:
+        before = LeanPPO(LeanConfig(steps=per_update, **base), tmp_path / "before").actor.state_dict()
+    else:
+        train(LeanConfig(steps=k * per_update, **base), tmp_path / "before")
+        before = load_actor(tmp_path / "before", "final")[1].state_dict()
+    sampled = load_actor(tmp_path / "run", "best_sampled")[1].state_dict()
+    for name, value in before.items():
+        assert torch.equal(value, sampled[name]), name
+    res = evaluate_run(tmp_path / "run", maps=["plus"], protocols=["training"], episodes=4, which="best_sampled",
+                       stochastic=True, write=False)
+    assert res["model"] == "best_sampled_actor.npz" and not res["deterministic"]
+    # a checkpoint written before the field: resumed, the best sampled actor is kept from there on
+    path = tmp_path / "run" / "checkpoint.json"
+    data = json.loads(path.read_text())
+    del data["best_sampled"]
+    path.write_text(json.dumps(data))
+    (tmp_path / "run" / "best_sampled_actor.npz").unlink()
+    train(LeanConfig(steps=5 * per_update, **base), tmp_path / "run", resume=True)
+    assert json.loads((tmp_path / "run" / "best_sampled.json").read_text())["update"] == 5
+    assert (tmp_path / "run" / "best_sampled_actor.npz").exists()
+    with pytest.raises(FileNotFoundError, match="best_sampled_actor.npz"):
+        (tmp_path / "run" / "best_sampled_actor.npz").unlink()
+        load_actor(tmp_path / "run", "best_sampled")

@@ -6,7 +6,8 @@ reads.  A run that has not finished its budget is refused, so a partial run is n
 
 Usage: python docs/results/baselines/fair_runs/archive.py COMMIT RUN_DIR ...
 (an IPOP-CMA-ES / CMA-ES run: RUN_DIR/{log.csv,summary.json,config.json,best_controllers.json}; a lean PPO run
-(`mahn-baselines lean`): RUN_DIR/{config.json,summary.json,eval_log.csv,train_log.csv,best_actor.npz,best.json};
+(`mahn-baselines lean`): RUN_DIR/{config.json,summary.json,eval_log.csv,train_log.csv,best_actor.npz,best.json,
+best_sampled_actor.npz,best_sampled.json};
 copied to fair_runs/<name of RUN_DIR>/, and the README row of each printed; the rows go into README.md's table by
 hand, before the paragraph under it)
 """
@@ -19,7 +20,8 @@ from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
 FILES = ("log.csv", "summary.json", "config.json", "best_controllers.json")
-LEAN_FILES = ("config.json", "summary.json", "eval_log.csv", "train_log.csv", "best_actor.npz", "best.json")
+LEAN_FILES = ("config.json", "summary.json", "eval_log.csv", "train_log.csv", "best_actor.npz", "best.json",
+              "best_sampled_actor.npz", "best_sampled.json")
 
 
 def row(name: str, summary: dict, config: dict, commit: str) -> str:
