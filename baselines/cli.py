@@ -1,4 +1,5 @@
-"""`mahn-baselines`: train / eval / compare RL baselines (a thin layer over train.py, evaluate.py, compare.py)."""
+"""`mahn-baselines`: train, tune, evaluate and compare the baselines (a thin layer over `sb3/`, `lean/`, `direct/`,
+`evaluate.py` and `comparison/`)."""
 from __future__ import annotations
 
 import argparse
@@ -9,9 +10,9 @@ from pathlib import Path
 
 from mahn_envs.core.params import ORIGINAL_MAX_TICKS, ORIGINAL_SIGNAL_TICK
 
-from .algos import ALGO_NAMES
-from .lean_config import METHODS as LEAN_METHODS
-from .train import EVAL_MAPS
+from .lean.config import METHODS as LEAN_METHODS
+from .sb3.algos import ALGO_NAMES
+from .sb3.train import EVAL_MAPS
 
 
 def _json_dict(text: str) -> dict:
@@ -113,7 +114,7 @@ def build_parser() -> argparse.ArgumentParser:
                     help="continue the run in --out if there is one (else start it): one command to rerun")
     _add_lean_task_args(lp)
     lp.add_argument("--hyperparams", type=_json_dict, default={},
-                    help="JSON overrides of the settings in baselines/lean_config.py (e.g. a tune best.json)")
+                    help="JSON overrides of the settings in baselines/lean/config.py (e.g. a tune best.json)")
 
     cm = sub.add_parser("cmaes", help="direct-encoding control: CMA-ES on the substrate networks (resumable)")
     cm.add_argument("--mode", choices=("situational", "standard"), default="situational",
@@ -179,7 +180,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     a = build_parser().parse_args(argv)
     try:
         if a.command == "train":
-            from .train import TrainConfig, train
+            from .sb3.train import TrainConfig, train
 
             cfg = TrainConfig(algo=a.algo, steps=a.steps, seed=a.seed, map=a.map, **_task_overrides(a))
             summary = train(cfg, a.out, progress=a.progress)
@@ -191,8 +192,8 @@ def main(argv: Sequence[str] | None = None) -> int:
                                which=a.model, stochastic=a.stochastic)
             print(json.dumps(res, indent=2) if a.json else format_results(res))
         elif a.command == "lean":
-            from .lean_config import LeanConfig
-            from .lean_ppo import train as lean_train
+            from .lean.config import LeanConfig
+            from .lean.ppo import train as lean_train
 
             lean_cfg = LeanConfig(method=a.method, steps=a.steps, seed=a.seed, **_lean_task(a)).with_overrides(
                 a.hyperparams)
@@ -203,8 +204,8 @@ def main(argv: Sequence[str] | None = None) -> int:
                                                            f"{r['robot_steps_per_second']:.0f}/s", flush=True))
             print(json.dumps(summary, indent=2))
         elif a.command == "cmaes":
-            from .direct_cma import CMAConfig
-            from .direct_cma import train as cma_train
+            from .direct.cmaes import CMAConfig
+            from .direct.cmaes import train as cma_train
 
             cma_cfg = CMAConfig(mode=a.mode, generations=a.generations, popsize=a.popsize, sigma0=a.sigma0,
                                 seed=a.seed, map=a.map, episodes=a.episodes, max_cycles=a.max_cycles,
@@ -214,8 +215,8 @@ def main(argv: Sequence[str] | None = None) -> int:
                                                               f"{r[4]:.3f}  sigma {r[7]:.3f}", flush=True))
             print(json.dumps(summary, indent=2))
         elif a.command == "neat-direct":
-            from .direct_neat import NeatDirectConfig
-            from .direct_neat import train as neat_train
+            from .direct.neat import NeatDirectConfig
+            from .direct.neat import train as neat_train
 
             nd_cfg = NeatDirectConfig(mode=a.mode, generations=a.generations, popsize=a.popsize, seed=a.seed,
                                       start=a.start, map=a.map, episodes=a.episodes, max_cycles=a.max_cycles,
@@ -225,14 +226,14 @@ def main(argv: Sequence[str] | None = None) -> int:
                                                                f"{r[4]:.3f}  species {r[7]}", flush=True))
             print(json.dumps(summary, indent=2))
         elif a.command == "tune":
-            from .tune import tune
+            from .lean.tune import tune
 
             cost = tune(a.method, a.out, trials=a.trials, steps=a.steps, seed=a.seed, tuning_seed=a.tuning_seed,
                         base=_lean_task(a))
             print(json.dumps(cost, indent=2))
         else:
-            from .compare import compare, evo_budget, train_missing
-            from .train import default_out, run_exists
+            from .comparison.compare import compare, evo_budget, train_missing
+            from .sb3.train import default_out, run_exists
 
             if a.no_train:
                 rl = [default_out(al, s, a.runs_dir) for al in a.algos for s in a.seeds]
@@ -242,11 +243,11 @@ def main(argv: Sequence[str] | None = None) -> int:
                 if steps is None:
                     raise ValueError("give --steps (or --evo-runs to match their budget)")
                 rl = train_missing(a.algos, a.seeds, steps, a.runs_dir, _task_overrides(a))
-            from .compare import published_curves
+            from .comparison.compare import published_curves
 
             earlier = [c for f in a.published for c in published_curves(f, a.published_methods)]
             payload = compare(list(rl) + list(a.rl_runs), a.evo_runs, a.out, points=a.points, published=earlier)
-            from .compare import markdown_table
+            from .comparison.compare import markdown_table
 
             print(markdown_table(payload["table"]))
             print(f"written: {a.out}/comparison.{{csv,md,json,png}}")

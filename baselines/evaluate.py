@@ -11,11 +11,11 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from .algos import get_algo, load_model
 from .io import write_json
-from .policy import SB3TeamPolicy
 from .protocols import TeamPolicy, run_protocol
-from .train import EVAL_MAPS, load_config
+from .sb3.algos import get_algo, load_model
+from .sb3.policy import SB3TeamPolicy
+from .sb3.train import EVAL_MAPS, load_config
 
 
 def model_path(run_dir: str | Path, which: str = "best") -> Path:
@@ -43,9 +43,9 @@ def evaluate_run(run_dir: str | Path, maps: Sequence[str] = EVAL_MAPS,
     from .io import read_json
 
     if read_json(Path(run_dir) / "config.json").get("kind") == "lean_config":  # a `mahn-baselines lean` run
-        from .gru_kernel import limit_blas_threads
-        from .lean_nets import LeanTeamPolicy
-        from .lean_ppo import load_actor
+        from .lean.gru_kernel import limit_blas_threads
+        from .lean.nets import LeanTeamPolicy
+        from .lean.ppo import load_actor
 
         lean_cfg, actor = load_actor(run_dir, which)
         torch.set_num_threads(max(1, lean_cfg.torch_threads))

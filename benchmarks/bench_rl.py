@@ -1,5 +1,5 @@
 """Training throughput of the lean PPO methods (whole updates: rollout + PPO epochs) against the issue's targets,
-and against SB3's PPO / RecurrentPPO as configured in `baselines/algos.py`, measured in the same run.
+and against SB3's PPO / RecurrentPPO as configured in `baselines/sb3/algos.py`, measured in the same run.
 
 Robot-steps/s are given per wall second and per CPU second of this process (`time.process_time`): on a
 shared machine the wall figure depends on the other load, the CPU figure much less.  torch runs on 1 thread.
@@ -32,8 +32,13 @@ WORKER = r"""
 import json, os, sys, tempfile, time
 code = sys.argv[1]
 sys.path.insert(0, code)
-from baselines.lean_config import LeanConfig
-from baselines.lean_ppo import LeanPPO
+if os.path.isdir(os.path.join(code, "baselines", "lean")):
+    from baselines.lean.config import LeanConfig
+    from baselines.lean.ppo import LeanPPO
+else:  # a revision before baselines/ had a folder per concept (chosen by its files: an editable install of
+    # this checkout would otherwise serve the new layout's modules to the old package)
+    from baselines.lean_config import LeanConfig
+    from baselines.lean_ppo import LeanPPO
 loaded = [m.__file__ for n, m in list(sys.modules.items())
           if n.split(".")[0] in ("baselines", "mahn_envs", "mahn_evo") and getattr(m, "__file__", None)]
 assert all(f.startswith(code) for f in loaded), [f for f in loaded if not f.startswith(code)]
@@ -54,8 +59,8 @@ TARGETS = {"ppo_ff": 60_000, "ippo_gru": 20_000, "mappo_gru": 20_000}
 
 
 def bench_lean(method: str, episodes: int, updates: int) -> tuple[float, float]:
-    from baselines.lean_config import LeanConfig
-    from baselines.lean_ppo import LeanPPO
+    from baselines.lean.config import LeanConfig
+    from baselines.lean.ppo import LeanPPO
 
     with tempfile.TemporaryDirectory() as out:
         cfg = LeanConfig(method=method, steps=10**12, n_episodes=episodes, eval_maps=["plus"])
@@ -71,7 +76,7 @@ def bench_lean(method: str, episodes: int, updates: int) -> tuple[float, float]:
 def bench_sb3(algo: str, steps: int) -> tuple[float, float]:
     import torch
 
-    from baselines.algos import get_algo, resolved_hyperparams
+    from baselines.sb3.algos import get_algo, resolved_hyperparams
     from baselines.vec_env import PatrolReturnVecEnv, register_with_sb3
 
     register_with_sb3()

@@ -140,8 +140,8 @@ def test_a_parked_lean_run_resumes_elsewhere_to_the_same_run(park, tmp_path):
     """Issue 12's lean PPO runs parked after 1 of 3 updates, restored in another folder and resumed: the same
     updates as the run made straight through; a run in use, or with damaged weights, is never parked."""
     pytest.importorskip("torch")
-    from baselines.lean_config import LeanConfig
-    from baselines.lean_ppo import train
+    from baselines.lean.config import LeanConfig
+    from baselines.lean.ppo import train
 
     base = dict(method="ppo_ff", seed=3, max_cycles=60, signal_tick=30, n_episodes=2, hidden=8, eval_maps=["plus"])
     per_update = 2 * 3 * 60
@@ -177,8 +177,8 @@ def test_park_all_parks_what_a_session_ran(park, tmp_path, monkeypatch):
     """The session's closing step: experiments parked before are parked again (one never parked is named, not
     parked), the lean PPO runs of fair/ are parked, and the tuning journals kept unless the kept one is longer."""
     pytest.importorskip("torch")
-    from baselines.lean_config import LeanConfig
-    from baselines.lean_ppo import train
+    from baselines.lean.config import LeanConfig
+    from baselines.lean.ppo import train
 
     monkeypatch.setattr(park, "TUNING", tmp_path / "fair_runs")
     host = tmp_path / "runs"

@@ -1,7 +1,7 @@
 """The one interface every team policy implements, so every protocol runs any team.
 
-Evolved teams (:class:`mahn_envs.policies.ControllerPolicy`), RL policies (``baselines.policy.SB3TeamPolicy``,
-``baselines.lean_nets.LeanTeamPolicy``) all offer both forms a protocol may need:
+Evolved teams (:class:`mahn_envs.policies.ControllerPolicy`), RL policies (``baselines.sb3.policy.SB3TeamPolicy``,
+``baselines.lean.nets.LeanTeamPolicy``) all offer both forms a protocol may need:
 
 - ``reset(n_episodes=1)``: start ``n_episodes`` fresh episodes (network or recurrent state cleared);
 - ``act_batch(obs)``: observations ``(B, R, 7)`` of B lock-step episodes -> actions ``(B, R)`` (the batch core's

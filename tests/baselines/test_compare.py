@@ -7,7 +7,7 @@ import math
 import pytest
 
 from baselines.cli import main
-from baselines.compare import SAMPLED_SOLVED_RATE, compare, evo_budget, evo_curve, rl_curve, sampled_curve
+from baselines.comparison.compare import SAMPLED_SOLVED_RATE, compare, evo_budget, evo_curve, rl_curve, sampled_curve
 from baselines.io import read_csv, write_csv, write_json
 
 
@@ -129,7 +129,7 @@ def test_published_curves_join_a_comparison_as_they_were(tmp_path) -> None:
     assert {c["method"] for c in second["curves"]} == {"ppo_ff", "hyperneat_situational"}
     assert all(c["holds_after_end"] for c in second["curves"] if c["method"] == "hyperneat_situational")
     with pytest.raises(ValueError, match="no curve of method"):
-        from baselines.compare import published_curves
+        from baselines.comparison.compare import published_curves
         published_curves(tmp_path / "first" / "comparison.json", ["cmaes_direct_standard"])
     (tmp_path / "bad.json").write_text('{"curves": [{"method": "x", "budget": [1, 2], "fitness": [1]}]}')
     with pytest.raises(ValueError, match="curve 0 is malformed|different or zero lengths"):

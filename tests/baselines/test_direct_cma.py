@@ -9,8 +9,8 @@ import pytest
 
 pytest.importorskip("cma")
 
-from baselines.compare import evo_curve  # noqa: E402
-from baselines.direct_cma import CMAConfig, DirectCMA, DirectEncoding, train  # noqa: E402
+from baselines.comparison.compare import evo_curve  # noqa: E402
+from baselines.direct.cmaes import CMAConfig, DirectCMA, DirectEncoding, train  # noqa: E402
 from mahn_envs.core.batch import BatchSim  # noqa: E402
 from mahn_envs.core.params import TaskParams  # noqa: E402
 from mahn_evo.hyperneat.substrate import query_layout  # noqa: E402

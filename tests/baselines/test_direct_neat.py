@@ -7,9 +7,9 @@ import json
 import numpy as np
 import pytest
 
-from baselines.compare import evo_curve
-from baselines.direct_cma import DirectEncoding
-from baselines.direct_neat import DirectNEAT, NeatDirectConfig, SubstrateGenes, train
+from baselines.comparison.compare import evo_curve
+from baselines.direct.cmaes import DirectEncoding
+from baselines.direct.neat import DirectNEAT, NeatDirectConfig, SubstrateGenes, train
 from mahn_envs.core.batch import BatchSim
 from mahn_envs.core.params import TaskParams
 from mahn_evo.neat import Genome, NeatSettings

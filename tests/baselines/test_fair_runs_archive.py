@@ -12,9 +12,9 @@ import pytest
 
 pytest.importorskip("torch")
 
-from baselines.compare import rl_curve, sampled_curve  # noqa: E402
-from baselines.lean_config import LeanConfig  # noqa: E402
-from baselines.lean_ppo import train  # noqa: E402
+from baselines.comparison.compare import rl_curve, sampled_curve  # noqa: E402
+from baselines.lean.config import LeanConfig  # noqa: E402
+from baselines.lean.ppo import train  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]
 

@@ -1,6 +1,6 @@
-"""The compiled GRU recurrence (baselines/gru_kernel.py) against torch's nn.GRU: the same outputs, last state and
+"""The compiled GRU recurrence (baselines/lean/gru_kernel.py) against torch's nn.GRU: the same outputs, last state and
 gradients (to float32 rounding), the rollout's no-graph path bit for bit the training path, and the allocator
-setting (baselines/allocator.py) in effect."""
+setting (baselines/lean/allocator.py) in effect."""
 import numpy as np
 import pytest
 
@@ -8,8 +8,8 @@ torch = pytest.importorskip("torch")
 pytest.importorskip("threadpoolctl")
 from torch import nn  # noqa: E402
 
-from baselines.allocator import keep_freed_memory  # noqa: E402
-from baselines.gru_kernel import gru_sequence, limit_blas_threads  # noqa: E402
+from baselines.lean.allocator import keep_freed_memory  # noqa: E402
+from baselines.lean.gru_kernel import gru_sequence, limit_blas_threads  # noqa: E402
 
 
 def _grads(f, gru, x, h0, gy, gh):

@@ -8,10 +8,10 @@ import pytest
 
 torch = pytest.importorskip("torch")
 
-from baselines.lean_config import LeanConfig  # noqa: E402
-from baselines.lean_nets import GRUNet, LeanTeamPolicy, stack_frames  # noqa: E402
-from baselines.lean_ppo import LeanPPO, gae, load_actor, train  # noqa: E402
-from baselines.weights_npz import load_weights  # noqa: E402
+from baselines.lean.config import LeanConfig  # noqa: E402
+from baselines.lean.nets import GRUNet, LeanTeamPolicy, stack_frames  # noqa: E402
+from baselines.lean.ppo import LeanPPO, gae, load_actor, train  # noqa: E402
+from baselines.lean.weights_npz import load_weights  # noqa: E402
 from mahn_envs.core.batch import BatchSim  # noqa: E402
 from mahn_envs.core.params import TaskParams  # noqa: E402
 

@@ -12,7 +12,7 @@ from stable_baselines3.common.env_checker import check_env  # noqa: E402
 from stable_baselines3.common.evaluation import evaluate_policy  # noqa: E402
 from stable_baselines3.common.vec_env import VecCheckNan, VecEnv, VecMonitor, VecNormalize  # noqa: E402
 
-from baselines.gym_env import PatrolReturnTeamEnv  # noqa: E402
+from baselines.sb3.gym_env import PatrolReturnTeamEnv  # noqa: E402
 from baselines.vec_env import PatrolReturnVecEnv, register_with_sb3  # noqa: E402
 
 torch.set_num_threads(1)

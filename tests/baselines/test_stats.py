@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import pytest
 
-from baselines.stats import fisher_solved, iqm, iqm_ci
+from baselines.comparison.stats import fisher_solved, iqm, iqm_ci
 
 
 def test_iqm_is_the_mean_of_the_middle_half():
@@ -24,7 +24,7 @@ def test_fisher_exact_on_solved_counts():
 
 
 def test_the_comparison_table_carries_the_statistics(tmp_path):
-    from baselines.compare import REFERENCE_METHOD, compare
+    from baselines.comparison.compare import REFERENCE_METHOD, compare
     from baselines.io import write_csv, write_json
 
     def evo(mode, seed, solved):

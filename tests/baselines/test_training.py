@@ -19,7 +19,7 @@ pytest.importorskip("sb3_contrib")
 from baselines.cli import main  # noqa: E402
 from baselines.evaluate import evaluate_run  # noqa: E402
 from baselines.protocols import run_protocol  # noqa: E402
-from baselines.train import TrainConfig, load_config  # noqa: E402
+from baselines.sb3.train import TrainConfig, load_config  # noqa: E402
 from mahn_envs.core.params import TaskParams  # noqa: E402
 
 SHORT = ["--max-cycles", "300", "--signal-tick", "150", "--n-episodes", "16", "--reward-scale", "100"]

@@ -8,7 +8,7 @@ import pytest
 optuna = pytest.importorskip("optuna")
 pytest.importorskip("torch")
 
-from baselines.tune import STUDY_FILE, objective_value, tune  # noqa: E402
+from baselines.lean.tune import STUDY_FILE, objective_value, tune  # noqa: E402
 
 TINY = {"max_cycles": 60, "signal_tick": 30}
 

@@ -134,8 +134,9 @@ def test_reward_scale_leaves_episode_score_unscaled() -> None:
 
 def test_imports_without_torch() -> None:
     code = ("import sys; sys.modules['torch'] = None; sys.modules['stable_baselines3'] = None\n"
-            "import baselines, baselines.vec_env, baselines.gym_env, baselines.protocols, baselines.compare\n"
-            "import baselines.lean_config, baselines.direct_cma  # torch-free: configs and the CMA-ES control\n"
+            "import baselines, baselines.vec_env, baselines.sb3.gym_env, baselines.protocols\n"
+            "import baselines.comparison.compare\n"
+            "import baselines.lean.config, baselines.direct.cmaes  # torch-free: configs and the CMA-ES control\n"
             "import baselines.cli; baselines.cli.build_parser()\n"
             "assert 'baselines.vec_env' in sys.modules")
     subprocess.run([sys.executable, "-c", code], check=True)

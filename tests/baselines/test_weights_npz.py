@@ -1,4 +1,4 @@
-"""baselines/weights_npz.py: state dicts and an optimiser's state as plain NPZ, back bit for bit; a foreign or
+"""baselines/lean/weights_npz.py: state dicts and an optimiser's state as plain NPZ, back bit for bit; a foreign or
 damaged file is a clear error; runs written in torch's format before it still load."""
 from __future__ import annotations
 
@@ -7,9 +7,9 @@ import pytest
 
 torch = pytest.importorskip("torch")
 
-from baselines.lean_config import LeanConfig  # noqa: E402
-from baselines.lean_ppo import load_actor, train  # noqa: E402
-from baselines.weights_npz import load_weights, save_weights  # noqa: E402
+from baselines.lean.config import LeanConfig  # noqa: E402
+from baselines.lean.ppo import load_actor, train  # noqa: E402
+from baselines.lean.weights_npz import load_weights, save_weights  # noqa: E402
 
 
 def test_weights_and_adam_state_come_back_bit_for_bit(tmp_path):

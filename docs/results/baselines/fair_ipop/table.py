@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from baselines.stats import fisher_solved, iqm, iqm_ci
+from baselines.comparison.stats import fisher_solved, iqm, iqm_ci
 
 RESULTS = Path(__file__).resolve().parents[2]
 ROBOT_STEPS = 1364 * 3  # per team scored

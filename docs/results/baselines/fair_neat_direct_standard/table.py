@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from baselines.stats import fisher_solved, iqm, iqm_ci
+from baselines.comparison.stats import fisher_solved, iqm, iqm_ci
 
 RESULTS = Path(__file__).resolve().parents[2]
 DIRECT = "NEAT-direct, standard"

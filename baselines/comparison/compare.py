@@ -34,7 +34,7 @@ import numpy as np
 
 from mahn_evo.storage.files import read_json_object
 
-from .io import read_csv, read_json, write_csv, write_json
+from ..io import read_csv, read_json, write_csv, write_json
 
 ROBOTS = 3
 TICKS = 1364
@@ -119,7 +119,7 @@ def rl_curve(run_dir: str | Path) -> Curve:
 
 #: a sampling policy counts as solving the task once at least this fraction of one update's training episodes solve it
 SAMPLED_SOLVED_RATE = 0.5
-#: the lean PPO training log's columns a sampling-policy curve reads (`baselines.lean_ppo.TRAIN_FIELDS`)
+#: the lean PPO training log's columns a sampling-policy curve reads (`baselines.lean.ppo.TRAIN_FIELDS`)
 SAMPLED_COLUMNS = ("steps", "fitness_mean", "solved_rate")
 
 
@@ -320,7 +320,7 @@ def compare(rl_runs: Sequence[str | Path], evo_runs: Sequence[str | Path], out: 
     md = ["# HyperNEAT vs RL baselines (training map, best-so-far team)", "",
           "Budget in robot-steps; evolution: teams evaluated x 1364 ticks x 3 robots.", "",
           "## At full budget", "", markdown_table(table), "", "## Versus budget", "", markdown_table(rows), ""]
-    from .io import _atomic_write_text
+    from ..io import _atomic_write_text
 
     _atomic_write_text(out / "comparison.md", "\n".join(md))
     payload = {"budgets": budgets.tolist(), "table": table, "curves": [
@@ -340,7 +340,7 @@ def compare(rl_runs: Sequence[str | Path], evo_runs: Sequence[str | Path], out: 
 def train_missing(algos: Sequence[str], seeds: Sequence[int], steps: int, runs_dir: str | Path,
                   overrides: dict[str, Any] | None = None, log=print) -> list[Path]:
     """Train every (algo, seed) run that has no `summary.json` yet (so an interrupted comparison resumes)."""
-    from .train import TrainConfig, default_out, run_exists, train
+    from ..sb3.train import TrainConfig, default_out, run_exists, train
 
     dirs = []
     for algo in algos:

@@ -32,8 +32,8 @@ from typing import Any
 
 from mahn_evo.storage.files import atomic_write_json
 
-from .io import read_csv
-from .lean_config import METHODS, RECURRENT_METHODS, LeanConfig
+from ..io import read_csv
+from .config import METHODS, RECURRENT_METHODS, LeanConfig
 
 DEFAULT_TRIALS = 25
 DEFAULT_STEPS = 20_000_000
@@ -42,7 +42,7 @@ STUDY_FILE = "study.jsonl"
 
 
 def suggest(trial: Any, method: str) -> dict[str, Any]:
-    """The search space (ranges around the documented defaults of `lean_config.py`)."""
+    """The search space (ranges around the documented defaults of `config.py`)."""
     p: dict[str, Any] = {
         "lr": trial.suggest_float("lr", 1e-4, 3e-3, log=True),
         "gamma": trial.suggest_categorical("gamma", [0.999, 0.9995, 1.0]),
@@ -83,7 +83,7 @@ def tune(method: str, out: str | Path, trials: int = DEFAULT_TRIALS, steps: int 
     from optuna.storages.journal import JournalFileBackend
     from optuna.trial import TrialState
 
-    from .lean_ppo import LeanPPO
+    from .ppo import LeanPPO
 
     if method not in METHODS:
         raise ValueError(f"method must be one of {METHODS}, got {method!r}")

@@ -18,9 +18,9 @@ from typing import Any
 from mahn_envs.core.params import TaskParams
 from mahn_envs.maps import load_map
 
+from ..io import write_csv, write_json
+from ..vec_env import PatrolReturnVecEnv, register_with_sb3
 from .algos import get_algo, resolved_hyperparams
-from .io import write_csv, write_json
-from .vec_env import PatrolReturnVecEnv, register_with_sb3
 
 EVAL_MAPS = ("plus", "asymmetric_plus")
 
@@ -90,8 +90,8 @@ def _make_callback(cfg: TrainConfig, out: Path, n_robots: int):
     """Callback (built lazily: SB3) that evaluates at budget points, keeps the best model, logs solved rates."""
     from stable_baselines3.common.callbacks import BaseCallback
 
+    from ..protocols import run_protocol
     from .policy import SB3TeamPolicy
-    from .protocols import run_protocol
 
     class BudgetEval(BaseCallback):
         def __init__(self) -> None:
@@ -184,7 +184,7 @@ def train(cfg: TrainConfig, out: str | Path, progress: bool = False) -> dict[str
 
 
 def load_config(run_dir: str | Path) -> TrainConfig:
-    from .io import read_json
+    from ..io import read_json
 
     d = read_json(Path(run_dir) / "config.json")
     algo = d["algo"]

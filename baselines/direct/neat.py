@@ -1,6 +1,6 @@
 """Direct-encoding NEAT: mahn's own NEAT evolving the substrate networks themselves, not CPPNs.
 
-The second direct-encoding control of issue 12 (beside CMA-ES, `direct_cma.py`).  It keeps everything of the
+The second direct-encoding control of issue 12 (beside CMA-ES, `cmaes.py`).  It keeps everything of the
 HyperNEAT trainer but the indirect encoding: the same NEAT code (`mahn_evo.neat.Population`: speciation,
 selection, crossover, weight mutation, NeatSettings' values), the same recurrent 7-9-3 networks (6-9-3 per
 situation) and the same evaluator (`TeamEvaluator.score`).  So it separates "indirect encoding" from "NEAT's
@@ -30,7 +30,7 @@ Run folder (a pure function of the seed, resumable bit-identically):
   checkpoint.json        versioned, checksummed: the whole NEAT population (RNG included), log, best so far
   log.csv                generation, evaluations, best_fitness, mean_fitness, best_ever, solved, n_solved,
                          n_species, threshold, mean_connections, cpu_seconds, seconds (the columns
-                         `baselines.compare.evo_curve` reads, as `mahn-baselines cmaes` writes them)
+                         `baselines.comparison.compare.evo_curve` reads, as `mahn-baselines cmaes` writes them)
   best_controllers.json  the best team so far (TeamControllers JSON and its genome, with its fitness)
   summary.json           method `neat_direct_<mode>`, seed, best fitness, solved, evaluations, robot-steps, times
 """
@@ -59,8 +59,8 @@ from mahn_evo.storage.files import (
     versioned,
 )
 
-from .direct_cma import DirectEncoding, GenerationLoop
-from .io import new_run_folder
+from ..io import new_run_folder
+from .cmaes import DirectEncoding, GenerationLoop
 
 LOG_HEADER = ["generation", "evaluations", "best_fitness", "mean_fitness", "best_ever", "solved", "n_solved",
               "n_species", "threshold", "mean_connections", "cpu_seconds", "seconds"]

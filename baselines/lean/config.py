@@ -1,6 +1,6 @@
 """Settings of the lean PPO family (numpy only, so configs are read and checked without torch).
 
-Three methods share one loop (`baselines/lean_ppo.py`), parameter sharing with the agent index in the input and
+Three methods share one loop (`baselines/lean/ppo.py`), parameter sharing with the agent index in the input and
 the same 7 sensor inputs for the actor as the evolved controllers:
 
 - `ippo_gru`: IPPO, a GRU actor and a GRU critic that sees the robot's inputs plus the time;
@@ -21,7 +21,7 @@ rewards; the signal at tick 690 must be linked to whatever the robots did before
   reaches across all 1364 ticks and no untrained critic biases it.  Measured on the full task (ppo_ff,
   32 episodes per update, seed 0): lambda 0.99 drove the policy into turning left and the team fitness from
   1.15 to 0.49 within 4 updates, 0.999 dipped to 0.79 before recovering, 1.0 rose steadily to 1.26 in 10
-  updates; optuna searches 0.95-1.0 (`baselines/tune.py`);
+  updates; optuna searches 0.95-1.0 (`baselines/lean/tune.py`);
 - truncated BPTT over chunks of `bptt` = 682 ticks (half an episode, > 256) from hidden states stored during
   the rollout: a chunk boundary at tick 682 falls just before the signal, and the stored state carries what
   the robot did before; `bptt` = 1364 backpropagates through whole episodes at ~1.3x the update cost;
@@ -110,7 +110,7 @@ class LeanConfig:
 
     def to_dict(self) -> dict[str, Any]:
         d = asdict(self)
-        d["algo"] = self.method  # the key `baselines.compare` names a run's method by
+        d["algo"] = self.method  # the key `baselines.comparison.compare` names a run's method by
         return d
 
     @classmethod

@@ -1,5 +1,5 @@
 """A lean PPO loop on torch for IPPO-GRU, MAPPO-GRU and feed-forward PPO (settings and their reasons:
-`baselines/lean_config.py`).
+`baselines/lean/config.py`).
 
 Why not SB3 / sb3-contrib here?  Their rollouts are windows shorter than an episode, their recurrent PPO is
 slow on this CPU (1-3.6 k robot-steps/s measured) and they have no centralised critic; this loop plays whole
@@ -11,7 +11,7 @@ hidden state at each chunk's start is the one the rollout produced (stored), and
 it with backpropagation through all its ticks.
 
 Run folder (resumable: `train(..., resume=True)` continues bit-identically):
-  config.json            the settings (`algo` = the method, as `baselines.compare` reads it)
+  config.json            the settings (`algo` = the method, as `baselines.comparison.compare` reads it)
   checkpoint.json        versioned: update count, steps, numpy generator state, logs, best; names its weights
   checkpoint_uNNNNNN.npz the state dicts of actor, critic and optimiser as plain arrays (weights_npz.py: no pickle;
                          runs written before it have checkpoint_uNNNNNN.pt, still read, tensors only)
@@ -39,13 +39,13 @@ from torch import nn
 from mahn_evo.storage.files import atomic_write_json, read_versioned_json, versioned
 from mahn_evo.storage.folder_lock import folder_lock
 
+from ..io import new_run_folder, write_csv
+from ..protocols import run_protocol
+from ..vec_env import PatrolReturnVecEnv
 from .allocator import keep_freed_memory
+from .config import STOPPING_RULES, LeanConfig
 from .gru_kernel import limit_blas_threads
-from .io import new_run_folder, write_csv
-from .lean_config import STOPPING_RULES, LeanConfig
-from .lean_nets import GRUNet, LeanTeamPolicy, build_networks, sample_actions, stack_frames
-from .protocols import run_protocol
-from .vec_env import PatrolReturnVecEnv
+from .nets import GRUNet, LeanTeamPolicy, build_networks, sample_actions, stack_frames
 from .weights_npz import load_weights, save_weights
 
 TRAIN_FIELDS = ("update", "steps", "wall_time", "cpu_seconds", "fitness_mean", "fitness_max", "solved_rate",
@@ -464,7 +464,8 @@ class LeanPPO:
                    "best": {k: v for k, v in best_row.items() if k.startswith(("fitness_", "solved_"))},
                    "best_at_steps": best_row["steps"],
                    "first_solved_steps": next((r["steps"] for r in rows if r.get(f"solved_{m}")), None),
-                   # the sampling policy PPO trains, as baselines.compare.sampled_curve reads it: its best update
+                   # the sampling policy PPO trains, as baselines.comparison.compare.sampled_curve reads it: its
+                   # best update
                    "best_sampled": _best_sampled(self.train_rows)}
         atomic_write_json(self.out / "summary.json", summary)
         return summary

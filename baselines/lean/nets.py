@@ -15,9 +15,9 @@ from torch import nn
 
 from mahn_envs.policies.team_policy import DictActFromBatch
 
+from ..vec_env import N_SENSOR_INPUTS, slot_observations
+from .config import LeanConfig
 from .gru_kernel import gru_sequence
-from .lean_config import LeanConfig
-from .vec_env import N_SENSOR_INPUTS, slot_observations
 
 N_ACTIONS = 3
 

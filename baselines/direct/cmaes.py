@@ -19,7 +19,8 @@ Run folder (resumable, deterministic from the seed):
   history.npz       the fitness of every candidate so far, in order (`fitness`), and each generation's population
                     size (`popsizes`); files without `popsizes` (before restarts) hold a (generations x popsize) array
   log.csv           generation, evaluations, best_fitness, mean_fitness, best_ever, solved, n_solved, sigma,
-                    seconds (the columns `baselines.compare.evo_curve` reads; budget = evaluations x ticks x 3)
+                    seconds (the columns `baselines.comparison.compare.evo_curve` reads; budget = evaluations x
+                    ticks x 3)
   best_controllers.json  the best team so far (TeamControllers JSON, with its fitness)
   summary.json      method `cmaes_direct_<mode>` (`ipop_cmaes_direct_<mode>` with restarts), seed, best fitness,
                     solved, evaluations, wall time (and, with restarts, where each search started)
@@ -53,7 +54,7 @@ from mahn_evo.hyperneat.substrate import MODES, WEIGHT_RANGE, query_layout
 from mahn_evo.hyperneat.team_evaluator import TeamEvaluator
 from mahn_evo.storage.files import atomic_write_csv, atomic_write_json, read_versioned_json, versioned
 
-from .io import new_run_folder
+from ..io import new_run_folder
 
 LOG_HEADER = ["generation", "evaluations", "best_fitness", "mean_fitness", "best_ever", "solved", "n_solved",
               "sigma", "cpu_seconds", "seconds"]

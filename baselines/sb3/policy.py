@@ -14,7 +14,7 @@ import numpy as np
 
 from mahn_envs.policies.team_policy import DictActFromBatch
 
-from .vec_env import slot_observations
+from ..vec_env import slot_observations
 
 
 class SB3TeamPolicy(DictActFromBatch):

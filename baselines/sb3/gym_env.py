@@ -15,7 +15,7 @@ from gymnasium import spaces
 from mahn_envs.core.batch import BatchSim
 from mahn_envs.core.params import TaskParams
 
-from .vec_env import N_SENSOR_INPUTS, slot_observations
+from ..vec_env import N_SENSOR_INPUTS, slot_observations
 
 
 class PatrolReturnTeamEnv(gym.Env):
