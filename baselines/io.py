@@ -5,10 +5,16 @@ from __future__ import annotations
 import csv
 import json
 from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import fields
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any, TypeVar
 
 from mahn_evo.storage.files import atomic_write_text
+
+if TYPE_CHECKING:
+    from _typeshed import DataclassInstance
+
+    S = TypeVar("S", bound=DataclassInstance)
 
 
 def _atomic_write_text(path: Path, text: str) -> None:
@@ -48,3 +54,14 @@ def new_run_folder(out: Path, kind: str, config: Mapping[str, Any]) -> None:
         raise ValueError(f"{str(out)!r} already holds a run (checkpoint.json); resume it or choose another --out")
     out.mkdir(parents=True, exist_ok=True)
     atomic_write_json(out / "config.json", versioned(kind, dict(config)))
+
+
+def settings_from_dict(cls: type[S], d: Mapping[str, Any], what: str, derived: Iterable[str] = ()) -> S:
+    """A settings record (a dataclass) from a saved mapping: its fields, skipping the file's own keys (kind,
+    version) and `derived` ones (written for other readers, such as a run's method); any other key is a ValueError
+    naming it and `what`, since a misspelt setting silently dropped would start a different run."""
+    names = {f.name for f in fields(cls)}
+    unknown = set(d) - names - {"kind", "version"} - set(derived)
+    if unknown:
+        raise ValueError(f"unknown {what} setting(s) {sorted(unknown)}; known: {sorted(names)}")
+    return cls(**{k: v for k, v in d.items() if k in names})

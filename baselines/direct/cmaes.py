@@ -41,7 +41,7 @@ import hashlib
 import math
 import time
 from collections.abc import Callable
-from dataclasses import asdict, dataclass, fields
+from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
@@ -54,7 +54,7 @@ from mahn_evo.hyperneat.substrate import MODES, WEIGHT_RANGE, query_layout
 from mahn_evo.hyperneat.team_evaluator import TeamEvaluator
 from mahn_evo.storage.files import atomic_write_csv, atomic_write_json, read_versioned_json, versioned
 
-from ..io import new_run_folder
+from ..io import new_run_folder, settings_from_dict
 
 LOG_HEADER = ["generation", "evaluations", "best_fitness", "mean_fitness", "best_ever", "solved", "n_solved",
               "sigma", "cpu_seconds", "seconds"]
@@ -110,11 +110,7 @@ class CMAConfig:
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> CMAConfig:
-        names = {f.name for f in fields(cls)}
-        unknown = set(d) - names - {"kind", "version", "method"}
-        if unknown:
-            raise ValueError(f"unknown CMA-ES setting(s) {sorted(unknown)}; known: {sorted(names)}")
-        return cls(**{k: v for k, v in d.items() if k in names})
+        return settings_from_dict(cls, d, "CMA-ES", derived=("method",))
 
 
 class DirectEncoding:

@@ -39,7 +39,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import asdict, dataclass, field, fields
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -59,7 +59,7 @@ from mahn_evo.storage.files import (
     versioned,
 )
 
-from ..io import new_run_folder
+from ..io import new_run_folder, settings_from_dict
 from .cmaes import DirectEncoding, GenerationLoop
 
 LOG_HEADER = ["generation", "evaluations", "best_fitness", "mean_fitness", "best_ever", "solved", "n_solved",
@@ -131,11 +131,7 @@ class NeatDirectConfig:
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> NeatDirectConfig:
-        names = {f.name for f in fields(cls)}
-        unknown = set(d) - names - {"kind", "version", "method", "neat_settings"}
-        if unknown:
-            raise ValueError(f"unknown NEAT-direct setting(s) {sorted(unknown)}; known: {sorted(names)}")
-        return cls(**{k: v for k, v in d.items() if k in names})
+        return settings_from_dict(cls, d, "NEAT-direct", derived=("method", "neat_settings"))
 
 
 def initial_distance(settings: NeatSettings, n_genes: int) -> float:

@@ -31,10 +31,12 @@ rewards; the signal at tick 690 must be linked to whatever the robots did before
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import asdict, dataclass, fields
+from dataclasses import asdict, dataclass
 from typing import Any
 
 from mahn_envs.core.params import TaskParams
+
+from ..io import settings_from_dict
 
 METHODS = ("ippo_gru", "mappo_gru", "ppo_ff")
 RECURRENT_METHODS = ("ippo_gru", "mappo_gru")
@@ -115,11 +117,7 @@ class LeanConfig:
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> LeanConfig:
-        names = {f.name for f in fields(cls)}
-        unknown = set(d) - names - {"algo", "kind", "version"}
-        if unknown:
-            raise ValueError(f"unknown lean PPO setting(s) {sorted(unknown)}; known: {sorted(names)}")
-        return cls(**{k: v for k, v in d.items() if k in names})
+        return settings_from_dict(cls, d, "lean PPO", derived=("algo",))
 
     def with_overrides(self, overrides: dict[str, Any]) -> LeanConfig:
         d = {k: v for k, v in asdict(self).items()}
