@@ -216,6 +216,11 @@ def test_the_best_sampled_actor_is_the_one_that_played_its_rollout(tmp_path):
     res = evaluate_run(tmp_path / "run", maps=["plus"], protocols=["training"], episodes=4, which="best_sampled",
                        stochastic=True, write=False)
     assert res["model"] == "best_sampled_actor.npz" and not res["deterministic"]
+    from baselines.cli import main
+
+    assert main(["eval", str(tmp_path / "run"), "--model", "best_sampled", "--stochastic", "--protocols", "training",
+                 "--maps", "plus", "--episodes", "2"]) == 0
+    assert json.loads((tmp_path / "run" / "eval.json").read_text())["model"] == "best_sampled_actor.npz"
     # a checkpoint written before the field: resumed, the best sampled actor is kept from there on
     path = tmp_path / "run" / "checkpoint.json"
     data = json.loads(path.read_text())
