@@ -150,6 +150,8 @@ def build_parser() -> argparse.ArgumentParser:
     tu.add_argument("--seed", type=int, default=0, help="seed of the sampler")
     tu.add_argument("--tuning-seed", type=int, default=100, help="training seed of every trial")
     tu.add_argument("--out", type=Path, required=True, help="study folder (trials, study file, best.json)")
+    tu.add_argument("--table", action="store_true",
+                    help="print every finished trial of the study in --out as a markdown table, and run nothing")
     _add_lean_task_args(tu)
     return parser
 
@@ -226,8 +228,11 @@ def main(argv: Sequence[str] | None = None) -> int:
                                                                f"{r[4]:.3f}  species {r[7]}", flush=True))
             print(json.dumps(summary, indent=2))
         elif a.command == "tune":
-            from .lean.tune import tune
+            from .lean.tune import trials_table, tune
 
+            if a.table:
+                print(trials_table(a.out, a.method))
+                return 0
             cost = tune(a.method, a.out, trials=a.trials, steps=a.steps, seed=a.seed, tuning_seed=a.tuning_seed,
                         base=_lean_task(a))
             print(json.dumps(cost, indent=2))

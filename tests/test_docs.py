@@ -6,6 +6,8 @@ import importlib.util
 import re
 from pathlib import Path
 
+import pytest
+
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGES = ("mahn_envs", "mahn_evo", "baselines")
 TEXT_SUFFIXES = {".py", ".md", ".toml"}
@@ -162,3 +164,16 @@ def test_the_confirmation_table_is_made_from_its_record():
     verdict = module.verdict(data)
     assert verdict["confirmed"] and verdict["protocol"]["robust"] == 4 and verdict["generalization"]["robust"] == 3
     assert module.table(data) in (folder / "README.md").read_text()
+
+
+def test_the_feed_forward_tuning_table_is_made_from_its_journal():
+    """docs/results/baselines/fair_runs/README.md quotes the finished feed-forward study trial by trial as
+    `mahn-baselines tune --table` prints it from the kept journal, word for word."""
+    pytest.importorskip("optuna")
+    from baselines.lean.tune import trials_table
+
+    folder = ROOT / "docs" / "results" / "baselines" / "fair_runs"
+    table = trials_table(folder / "tune_ppo_ff", "ppo_ff")
+    assert "| 30 | completed | **15.45** |" in table and table.endswith("25 finished trials; 6 cut off by an "
+                                                                            "interruption and run again")
+    assert table in (folder / "README.md").read_text()

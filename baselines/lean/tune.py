@@ -16,6 +16,7 @@ Folder:
   trials/<key>/      one lean PPO run per parameter set (key = a digest of the settings), resumable
   tuning_cost.json   trials, robot-steps, wall and CPU seconds spent; best value and settings so far
   best.json          the best settings, as `--hyperparams` for `mahn-baselines lean`
+`trials_table` (`mahn-baselines tune --method M --out DIR --table`) prints every finished trial from the journal alone.
 
 Resumable and deterministic: the sampler for trial k is seeded with (seed, k) and sees the same finished
 trials, so an interrupted study continues with the same suggestions; a trial cut off mid-run is marked failed
@@ -188,3 +189,55 @@ def _write_cost(study: Any, out: Path, method: str, steps: int) -> dict[str, Any
     if best is not None:
         atomic_write_json(out / "best.json", best.params)
     return cost
+
+
+#: the settings `trials_table` shows, in this order (the search space of `suggest`; a method has some of them)
+TABLE_SETTINGS = ("lr", "gamma", "gae_lambda", "ent_coef", "epochs", "minibatches", "clip", "hidden", "n_episodes",
+                  "reward_scale", "bptt", "frame_stack")
+
+
+def _format_setting(value: Any) -> str:
+    if isinstance(value, float) and not value.is_integer():
+        return f"{value:.3g}" if abs(value) < 0.01 else f"{value:.4g}"
+    return str(int(value)) if isinstance(value, float) else str(value)
+
+
+def trials_table(out: str | Path, method: str) -> str:
+    """Every finished trial of the study in `out` (study.jsonl alone) as a markdown table: its state, objective
+    (a pruned trial's: the last value it reported), robot-steps, CPU-seconds and settings; the trials cut off by an
+    interruption are not rows (each ran again as a later trial, resuming its folder) but are counted below.  Why:
+    the search must be documented trial by trial, not only by its winner (tuning_cost.json)."""
+    import optuna
+    from optuna.storages import JournalStorage
+    from optuna.storages.journal import JournalFileBackend
+    from optuna.trial import TrialState
+
+    path = Path(out) / STUDY_FILE
+    if not path.is_file():
+        raise FileNotFoundError(f"no tuning journal {str(path)!r}")
+    optuna.logging.set_verbosity(optuna.logging.WARNING)
+    study = optuna.load_study(study_name=f"lean_{method}", storage=JournalStorage(JournalFileBackend(str(path))))
+    trials = study.get_trials(deepcopy=False)
+    shown = [k for k in TABLE_SETTINGS if any(k in t.params for t in trials)]
+    head = ["trial", "state", "objective", "robot-steps", "CPU-s"] + shown
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    done = [t for t in trials if t.state == TrialState.COMPLETE and t.value is not None]
+    best = max(done, key=lambda t: float(t.value or 0.0), default=None)
+    for t in trials:
+        if t.state not in (TrialState.COMPLETE, TrialState.PRUNED):
+            continue
+        value = t.value if t.state == TrialState.COMPLETE else (
+            t.intermediate_values[max(t.intermediate_values)] if t.intermediate_values else None)
+        cost = _trial_cost(t.user_attrs)
+        cells = [str(t.number), "completed" if t.state == TrialState.COMPLETE else "pruned",
+                 "" if value is None else (f"**{value:.2f}**" if t is best else f"{value:.2f}"),
+                 "" if cost is None else f"{float(cost['steps']) / 1e6:.1f} M",
+                 "" if cost is None else f"{float(cost['cpu_seconds']):.0f}"]
+        cells += [_format_setting(t.params[k]) if k in t.params else "" for k in shown]
+        lines.append("| " + " | ".join(cells) + " |")
+    cut = sum(t.state == TrialState.FAIL for t in trials)
+    running = sum(t.state == TrialState.RUNNING for t in trials)
+    lines.append("")
+    lines.append(f"{len(lines) - 3} finished trials; {cut} cut off by an interruption and run again"
+                 + (f"; {running} running or cut off now" if running else ""))
+    return "\n".join(lines)

@@ -8,7 +8,7 @@ import pytest
 optuna = pytest.importorskip("optuna")
 pytest.importorskip("torch")
 
-from baselines.lean.tune import STUDY_FILE, objective_value, tune  # noqa: E402
+from baselines.lean.tune import STUDY_FILE, objective_value, trials_table, tune  # noqa: E402
 
 TINY = {"max_cycles": 60, "signal_tick": 30}
 
@@ -47,6 +47,14 @@ def test_an_interrupted_trial_runs_again_with_its_settings(tmp_path):
     assert trials[cut.number][1] == "FAIL"
     assert trials[-1][1] == "COMPLETE" and trials[-1][2]["lr"] == cut.params["lr"]
     assert any("interrupted" in line for line in log)
+    # the trial table: the finished trials as rows (the best in bold), the cut-off one counted, not a row
+    table = trials_table(tmp_path, "ppo_ff").splitlines()
+    rows = [line for line in table if line.startswith("| ") and "completed" in line]
+    assert table[0].startswith("| trial | state | objective | robot-steps | CPU-s | lr |") and "frame_stack" in table[0]
+    assert [r.split(" | ")[0] for r in rows] == ["| 0", f"| {trials[-1][0]}"] and sum("**" in r for r in rows) == 1
+    assert table[-1] == "2 finished trials; 1 cut off by an interruption and run again"
+    with pytest.raises(FileNotFoundError, match="no tuning journal"):
+        trials_table(tmp_path / "nothing", "ppo_ff")
 
 
 def test_objective_is_the_mean_of_the_last_tenth():
