@@ -58,12 +58,25 @@ print(json.dumps(out))
 TARGETS = {"ppo_ff": 60_000, "ippo_gru": 20_000, "mappo_gru": 20_000}
 
 
-def bench_lean(method: str, episodes: int, updates: int) -> tuple[float, float]:
+def tuned_settings(folder: str | None, method: str) -> dict:
+    """The tuned settings of a method (FOLDER/tune_<method>/best.json, as `mahn-baselines tune` writes them), or
+    {} (the defaults) without a folder or a finished study there."""
+    path = os.path.join(folder, f"tune_{method}", "best.json") if folder else None
+    if path is None or not os.path.isfile(path):
+        return {}
+    with open(path, encoding="utf-8") as f:
+        return json.load(f)
+
+
+def bench_lean(method: str, episodes: int, updates: int, settings: dict | None = None) -> tuple[float, float]:
+    """(robot-steps per second, per CPU-second) of `updates` updates after a warm-up one; `settings` override the
+    defaults (a tuned best.json: its own episodes per update then replace `episodes`)."""
     from baselines.lean.config import LeanConfig
     from baselines.lean.ppo import LeanPPO
 
     with tempfile.TemporaryDirectory() as out:
-        cfg = LeanConfig(method=method, steps=10**12, n_episodes=episodes, eval_maps=["plus"])
+        cfg = LeanConfig(method=method, steps=10**12, eval_maps=["plus"],
+                         **{"n_episodes": episodes, **(settings or {})})
         run = LeanPPO(cfg, os.path.join(out, "run"))
         run.learn(run.rollout())  # warm-up: first calls allocate and initialise
         c0, t0 = time.process_time(), time.perf_counter()
@@ -130,19 +143,23 @@ def main() -> None:
     ap.add_argument("--sb3-steps", type=int, default=49152, help="robot-steps of each SB3 reference (0: skip)")
     ap.add_argument("--rev", nargs="+", default=[], help="revisions to measure beside this checkout (lean only)")
     ap.add_argument("--repeats", type=int, default=2, help="with --rev: workers per version")
+    ap.add_argument("--tuned", metavar="DIR",
+                    help="measure each method with its tuned settings, DIR/tune_<method>/best.json (e.g. "
+                         "docs/results/baselines/fair_runs), where the study has finished; the defaults otherwise")
     a = ap.parse_args()
     print(f"load average before: {os.getloadavg()[0]:.2f} on {os.cpu_count()} cores")
     if a.rev:
         ab(a.rev, a.methods, a.episodes, a.updates, a.repeats)
         print(f"load average after: {os.getloadavg()[0]:.2f}")
         return
-    print(f"{'method':<16}{'robot-steps/s':>15}{'per CPU-s':>12}{'target':>9}  meets (CPU-s)")
+    print(f"{'method':<16}{'robot-steps/s':>15}{'per CPU-s':>12}{'target':>9}  meets (CPU-s)  settings")
     lean = {}
     for m in a.methods:
-        wall, cpu = bench_lean(m, a.episodes, a.updates)
+        settings = tuned_settings(a.tuned, m)
+        wall, cpu = bench_lean(m, a.episodes, a.updates, settings)
         lean[m] = cpu
-        print(f"{m:<16}{wall:>15,.0f}{cpu:>12,.0f}{TARGETS[m]:>9,}  {'yes' if cpu >= TARGETS[m] else 'NO'}",
-              flush=True)
+        print(f"{m:<16}{wall:>15,.0f}{cpu:>12,.0f}{TARGETS[m]:>9,}  {'yes' if cpu >= TARGETS[m] else 'NO':<13}  "
+              f"{'tuned' if settings else 'defaults'}", flush=True)
     if a.sb3_steps > 0:
         refs = {"ppo": "ppo_ff", "recurrent_ppo": "ippo_gru"}
         for algo, ours in refs.items():
