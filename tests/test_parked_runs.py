@@ -98,8 +98,8 @@ def test_a_parked_experiment_resumes_elsewhere_to_the_same_runs(park, tmp_path):
 
 
 def _queue_commands() -> list[tuple[str, list[str]]]:
-    """(program, arguments) of every step of queue.sh, its continuation lines joined, HARDENED and the loop
-    variables filled in."""
+    """(program, arguments) of every step of queue.sh, its continuation lines joined, its settings (NAME=value,
+    NAME=(...)) and the loop variables filled in."""
     import re
     import shlex
 
@@ -109,11 +109,14 @@ def _queue_commands() -> list[tuple[str, list[str]]]:
     for name in list(arrays):
         for other, inner in list(arrays.items()):
             arrays[name] = arrays[name].replace(f'"${{{other}[@]}}"', inner)
+    scalars = dict(re.findall(r"^(\w+)=(\w+)\b", text, flags=re.M))  # NAME=value settings, e.g. TRIALS=25
     out = []
     for line in text.splitlines():
         m = re.match(r"(?:\s*|.*\|\| )step python -m (mahn_evo\.cli|baselines) (.*?)( \|\| return)?$", line)
         if m:
             args = m.group(2)
+            for name, value in scalars.items():
+                args = args.replace(f"${name}", value)
             for name, value in arrays.items():
                 args = args.replace(f'"${{{name}[@]}}"', value)
             args = re.sub(r'"\$\(cat [^)]*\)"', "{}", args).replace('"$steps"', "1e8")
@@ -129,8 +132,8 @@ def test_every_step_of_the_queue_is_a_command_the_clis_accept():
     from mahn_evo.cli import build_parser as evo_parser
 
     steps = _queue_commands()
-    # the robot-noise seeds; issue 12's tuning steps (IPPO in lane A, the others in lane B) and final runs
-    assert [p for p, _ in steps].count("mahn_evo.cli") == 1 and [p for p, _ in steps].count("baselines") == 3
+    # the robot-noise seeds; issue 12's tuning step (`tune`, one per method) and final runs (`final_pool`)
+    assert [p for p, _ in steps].count("mahn_evo.cli") == 1 and [p for p, _ in steps].count("baselines") == 2
     for program, args in steps:
         parser = evo_parser() if program == "mahn_evo.cli" else baselines_parser()
         parser.parse_args(args)  # SystemExit on an unknown option or a bad value

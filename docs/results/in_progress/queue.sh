@@ -36,19 +36,63 @@ step() {  # run one step; 1 (end the lane) only when it was stopped
   return 0
 }
 
-final_rl() {  # issue 12's final runs of one method on seeds 0-4 (docs/baselines.md), once its tuning has finished
-  local m=$1 steps=$2
-  if [ ! -f "fair/tune_$m/best.json" ]; then echo "$(date -u) no fair/tune_$m/best.json yet: $m's final runs wait"; return 0; fi
-  for s in 0 1 2 3 4; do
-    step python -m baselines lean --method "$m" --steps "$steps" --seed $s --out "fair/${m}_seed$s" --resume \
-        --hyperparams "$(cat "fair/tune_$m/best.json")" --threads 1 || return
+TRIALS=25  # each method's tuning trials (docs/baselines.md)
+FINAL_RUNS="ppo_ff:2e8 ippo_gru:1e8 mappo_gru:1e8"  # issue 12's final runs: method:budget, seeds 0-4 each
+
+tuned() {  # 0 when method $1's study has finished its trials, so its best.json is final (best.json itself is
+  # rewritten after every completed trial, so it exists long before)
+  python -c "import json, sys
+c = json.load(open(f'fair/tune_{sys.argv[1]}/tuning_cost.json'))
+sys.exit(0 if c['trials_completed'] + c['trials_pruned'] >= int(sys.argv[2]) else 1)" "$1" "$TRIALS" 2>/dev/null
+}
+
+finished() {  # 0 when lean run folder $1 has reached its budget of $2 robot-steps
+  python -c "import json, sys
+sys.exit(0 if json.load(open(sys.argv[1] + '/summary.json'))['steps'] >= float(sys.argv[2]) else 1)" "$1" "$2" 2>/dev/null
+}
+
+tune() {  # method $1's tuning, marked as running (fair/.claims/tuning_$1) while it runs, for final_pool
+  local m=$1 rc
+  touch "fair/.claims/tuning_$m"
+  step python -m baselines tune --method "$m" --trials $TRIALS --steps 2e7 --out "fair/tune_$m" --threads 1
+  rc=$?
+  rm -f "fair/.claims/tuning_$m"
+  return $rc
+}
+
+final_pool() {  # issue 12's final runs, shared by both lanes: each lane takes the first run (in FINAL_RUNS order)
+  # that is not finished, whose method's tuning has finished, and that the other lane has not claimed (a claim is
+  # a directory, made atomically; claims are cleared when the queue starts).  A lane waits while the runs left wait
+  # only for a tuning running in the other lane (`tune`), and returns when none is left to take.
+  while true; do
+    local took=0 waiting=0 job m steps s run
+    for job in $FINAL_RUNS; do
+      m=${job%%:*}
+      steps=${job##*:}
+      for s in 0 1 2 3 4; do
+        run="fair/${m}_seed$s"
+        finished "$run" "$steps" && continue
+        if ! tuned "$m"; then
+          [ -e "fair/.claims/tuning_$m" ] && waiting=1  # the other lane is tuning it: wait; else nobody will
+          continue
+        fi
+        mkdir "fair/.claims/${m}_seed$s" 2>/dev/null || continue
+        took=1
+        step python -m baselines lean --method "$m" --steps "$steps" --seed $s --out "$run" --resume \
+            --hyperparams "$(cat "fair/tune_$m/best.json")" --threads 1 || return
+        break 2
+      done
+    done
+    [ $took -eq 1 ] && continue
+    [ $waiting -eq 1 ] || return 0
+    sleep "${POOL_WAIT:-120}"  # seconds between looks at the other lane's tuning
   done
 }
 
 lane_a() {
-  # issue 12: the recurrent IPPO's tuning and final runs (the other methods run in lane B)
-  step python -m baselines tune --method ippo_gru --trials 25 --steps 2e7 --out fair/tune_ippo_gru --threads 1 || return
-  final_rl ippo_gru 1e8 || return
+  # issue 12: the recurrent IPPO's tuning, then the final runs with lane B (the other tunings run there)
+  tune ippo_gru || return
+  final_pool || return
   # issue 15: experiment_robot's seeds not yet on its page
   step python -m mahn_evo.cli experiment --out robot15 --modes situational --runs 15 --seed 1 \
       --preset hardened-sequential --noise robot --generations 1000 --after-solved 300 --workers 1 --no-analysis \
@@ -64,14 +108,13 @@ lane_a() {
 }
 
 lane_b() {
-  # issue 12: tuning, then the final runs (docs/baselines.md, "What remains to run"); ippo_gru runs in lane A
-  for m in ppo_ff mappo_gru; do
-    step python -m baselines tune --method $m --trials 25 --steps 2e7 --out fair/tune_$m --threads 1 || return
-  done
-  final_rl ppo_ff 2e8 || return
-  final_rl mappo_gru 1e8 || return
+  # issue 12: the feed-forward and MAPPO tunings (IPPO's runs in lane A), then the final runs with lane A
+  tune ppo_ff || return
+  tune mappo_gru || return
+  final_pool || return
 }
 
+rm -rf fair/.claims && mkdir -p fair/.claims  # claims of the final runs (final_pool) are this session's
 lane_a > lane_a.out 2>&1 &
 lane_b > lane_b.out 2>&1 &
 wait
