@@ -17,7 +17,7 @@ Run folder (resumable: `train(..., resume=True)` continues bit-identically):
                          runs written before it have checkpoint_uNNNNNN.pt, still read, tensors only)
   best_actor.npz         the actor with the best greedy training-map fitness so far (+ best.json)
   best_sampled_actor.npz the actor whose sampled rollout had the best mean team fitness so far (+ best_sampled.json):
-                         the sampling policy PPO trains, for `evaluate --which best_sampled --stochastic`
+                         the sampling policy PPO trains, for `mahn-baselines eval --model best_sampled --stochastic`
   eval_log.csv           greedy team fitness / solved on every eval map (the comparison's greedy curves)
   train_log.csv          per update: training-episode fitness (the sampling policy's: the comparison's
                          `<method>_sampled` curves), losses, entropy, KL, robot-steps/s
