@@ -50,6 +50,7 @@ def test_a_finished_lean_run_is_kept_and_an_unfinished_one_refused(archive, tmp_
         np.testing.assert_array_equal(getattr(kept_sampled, field), getattr(run_sampled, field))
     best = json.loads((run / "summary.json").read_text())["best_sampled"]
     assert best["fitness_mean"] == pytest.approx(run_sampled.fitness[-1]) and "sampling policy: best mean" in row
+    assert "on 20 fresh episodes plus " in row
     # a run whose budget was raised and not yet reached is not finished
     config = json.loads((run / "config.json").read_text())
     (run / "config.json").write_text(json.dumps({**config, "steps": 10 * 360}))

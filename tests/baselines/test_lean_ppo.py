@@ -205,6 +205,9 @@ def test_the_best_sampled_actor_is_the_one_that_played_its_rollout(tmp_path):
     assert kept["update"] == k + 1 and kept["fitness_mean"] == pytest.approx(rows[k]["fitness_mean"], abs=1e-6)
     summary = json.loads((tmp_path / "run" / "summary.json").read_text())
     assert summary["best_sampled"]["steps"] == kept["steps"] == (k + 1) * per_update
+    again = summary["best_sampled_evaluation"]  # that actor on 20 fresh sampled episodes of each eval map
+    assert again["episodes"] == 20 and set(again) == {"episodes", "plus"} and 0.0 <= again["plus"]["solved_rate"] <= 1
+    assert again["plus"]["fitness"] > 0.0
     if k == 0:
         before = LeanPPO(LeanConfig(steps=per_update, **base), tmp_path / "before").actor.state_dict()
     else:

@@ -63,6 +63,10 @@ def lean_row(name: str, summary: dict, config: dict, commit: str) -> str:
     if sampled:
         what += (f"; sampling policy: best mean team fitness {sampled['fitness_mean']:.2f}, solved rate "
                  f"{sampled['solved_rate']:.2f} (at {sampled['steps']:,} robot-steps)")
+    again = summary.get("best_sampled_evaluation")
+    if again:
+        what += f", on {again['episodes']} fresh episodes " + ", ".join(
+            f"{k} {v['fitness']:.2f} (solved {v['solved_rate']:.2f})" for k, v in again.items() if k != "episodes")
     return f"| [`{name}/`]({name}/) | {cmd} | {what} | {summary['cpu_seconds']:.0f} |"
 
 
