@@ -177,3 +177,12 @@ def test_the_feed_forward_tuning_table_is_made_from_its_journal():
     assert "| 30 | completed | **15.45** |" in table and table.endswith("25 finished trials; 6 cut off by an "
                                                                             "interruption and run again")
     assert table in (folder / "README.md").read_text()
+
+
+def test_the_partial_fair_comparison_quotes_its_own_table():
+    """docs/results/baselines/fair/README.md quotes the full-budget table of its comparison.md (what `compare`
+    wrote), word for word, so remaking the page with the RL runs cannot leave an old table behind."""
+    folder = ROOT / "docs" / "results" / "baselines" / "fair"
+    table = (folder / "comparison.md").read_text().split("## At full budget\n\n")[1].split("\n\n")[0]
+    assert "| ipop_cmaes_direct_situational | 15 |" in table
+    assert table in (folder / "README.md").read_text()

@@ -108,6 +108,7 @@ def test_compute_matched_curves_use_cpu_seconds_and_hyperneat_seconds(tmp_path) 
     assert list(r.on_cpu().budget) == [2.0, 5.0] and list(r.on_cpu().fitness) == [3.0, 3.0]
     assert list(e.on_cpu().budget) == [1.5, 3.0, 4.5]  # per-generation seconds, summed
     assert e.on_cpu().at(3.0) == (130.0, 1.0)
+    assert r.on_cpu().at(50.0) == (3.0, 0.0)  # a run that spent fewer seconds keeps its result at later seconds
     bare = _rl_run(tmp_path, "dqn", 0, [(0, 1.0, 0)])  # logs no seconds: no compute-matched curve
     assert rl_curve(bare).on_cpu() is None
     payload = compare([rl, bare], [evo], tmp_path / "out", points=4)
@@ -165,3 +166,17 @@ def test_a_lean_run_is_read_as_its_greedy_and_its_sampling_policy(tmp_path) -> N
     write_csv(run / "train_log.csv", ["update", "steps"], [{"update": 1, "steps": 1000}])
     with pytest.raises(ValueError, match="fitness_mean"):
         sampled_curve(run)
+
+
+def test_runs_that_end_within_a_generation_of_each_other_are_read_at_their_ends(tmp_path) -> None:
+    """IPOP-CMA-ES runs end a few hundred teams short of 500,000: the grid's last budgets must not average over
+    only the runs that ended last (two unsolved runs ending first, one solved run ending last: 1 of 3, not 1 of 1)."""
+    ends = [(499_300, 60.0, False), (499_600, 61.0, False), (500_000, 150.0, True)]
+    runs = [_evo_run(tmp_path, "situational", s, [(1000, 50.0, False), (end, fit, ok)], solved=False)
+            for s, (end, fit, ok) in enumerate(ends)]
+    payload = compare([], runs, tmp_path / "out", points=4)
+    last = [r for r in read_csv(tmp_path / "out" / "comparison.csv")][-1]
+    assert int(last["budget_robot_steps"]) == 500_000 * 1364 * 3 and last["runs"] == "3"
+    assert float(last["solved_rate"]) == pytest.approx(1 / 3, abs=1e-4)
+    assert payload["table"][0]["solved_rate"] == pytest.approx(0.333, abs=1e-3)
+    assert math.isnan(evo_curve(runs[0]).at(499_300 * 1364 * 3 * 1.02)[0])  # well beyond its end: no claim
