@@ -63,6 +63,20 @@ def suggest(trial: Any, method: str) -> dict[str, Any]:
     return p
 
 
+def _journal(path: Path) -> Any:
+    """optuna's storage over a study's journal file (plain JSON lines): one way to open it, for the search and
+    for `trials_table`."""
+    from optuna.storages import JournalStorage
+    from optuna.storages.journal import JournalFileBackend
+
+    return JournalStorage(JournalFileBackend(str(path)))
+
+
+def study_name(method: str) -> str:
+    """The study's name in its journal (one method per study folder)."""
+    return f"lean_{method}"
+
+
 def settings_key(settings: dict[str, Any]) -> str:
     return hashlib.sha256(json.dumps(settings, sort_keys=True).encode()).hexdigest()[:12]
 
@@ -80,8 +94,6 @@ def tune(method: str, out: str | Path, trials: int = DEFAULT_TRIALS, steps: int 
          log: Callable[[str], None] = print) -> dict[str, Any]:
     """Run (or continue) the search until `trials` trials have finished (completed or pruned)."""
     import optuna
-    from optuna.storages import JournalStorage
-    from optuna.storages.journal import JournalFileBackend
     from optuna.trial import TrialState
 
     from .ppo import LeanPPO
@@ -93,8 +105,8 @@ def tune(method: str, out: str | Path, trials: int = DEFAULT_TRIALS, steps: int 
     optuna.logging.set_verbosity(optuna.logging.WARNING)
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    storage = JournalStorage(JournalFileBackend(str(out / STUDY_FILE)))
-    name = f"lean_{method}"
+    storage = _journal(out / STUDY_FILE)
+    name = study_name(method)
     study = optuna.create_study(study_name=name, storage=storage, direction="maximize", load_if_exists=True)
     for t in study.get_trials(deepcopy=False, states=(TrialState.RUNNING,)):  # cut off by an interruption
         study.tell(t.number, state=TrialState.FAIL)
@@ -208,15 +220,13 @@ def trials_table(out: str | Path, method: str) -> str:
     interruption are not rows (each ran again as a later trial, resuming its folder) but are counted below.  Why:
     the search must be documented trial by trial, not only by its winner (tuning_cost.json)."""
     import optuna
-    from optuna.storages import JournalStorage
-    from optuna.storages.journal import JournalFileBackend
     from optuna.trial import TrialState
 
     path = Path(out) / STUDY_FILE
     if not path.is_file():
         raise FileNotFoundError(f"no tuning journal {str(path)!r}")
     optuna.logging.set_verbosity(optuna.logging.WARNING)
-    study = optuna.load_study(study_name=f"lean_{method}", storage=JournalStorage(JournalFileBackend(str(path))))
+    study = optuna.load_study(study_name=study_name(method), storage=_journal(path))
     trials = study.get_trials(deepcopy=False)
     shown = [k for k in TABLE_SETTINGS if any(k in t.params for t in trials)]
     head = ["trial", "state", "objective", "robot-steps", "CPU-s"] + shown
