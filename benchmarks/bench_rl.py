@@ -10,7 +10,7 @@ versions (A B B A ...), and the ratio of the fastest worker of each is printed (
 
     python benchmarks/bench_rl.py [--methods ppo_ff ippo_gru mappo_gru] [--episodes 32] [--updates 1]
                                   [--sb3-steps 49152]   # 0 skips SB3
-    python benchmarks/bench_rl.py --rev e2a4a3c [--repeats 2] [--methods ...] [--updates 2]
+    python benchmarks/bench_rl.py --rev e2a4a3c [--repeats 2] [--methods ...] [--updates 2] [--tuned DIR]
 """
 from __future__ import annotations
 
@@ -43,10 +43,11 @@ loaded = [m.__file__ for n, m in list(sys.modules.items())
           if n.split(".")[0] in ("baselines", "mahn_envs", "mahn_evo") and getattr(m, "__file__", None)]
 assert all(f.startswith(code) for f in loaded), [f for f in loaded if not f.startswith(code)]
 out = {}
-for m in sys.argv[4:]:
+settings = json.loads(sys.argv[4])
+for m in sys.argv[5:]:
     with tempfile.TemporaryDirectory() as d:
-        run = LeanPPO(LeanConfig(method=m, steps=10**12, n_episodes=int(sys.argv[2]), eval_maps=["plus"]),
-                      os.path.join(d, "run"))
+        run = LeanPPO(LeanConfig(method=m, steps=10**12, eval_maps=["plus"],
+                                 **{"n_episodes": int(sys.argv[2]), **settings.get(m, {})}), os.path.join(d, "run"))
         run.learn(run.rollout())
         c0 = time.process_time()
         for _ in range(int(sys.argv[3])):
@@ -112,8 +113,10 @@ def unpack_revision(rev: str, into: str) -> str:
     return into
 
 
-def ab(revs: list[str], methods: list[str], episodes: int, updates: int, repeats: int) -> None:
-    """This checkout against each revision, interleaved: robot-steps per CPU-second, the fastest worker each."""
+def ab(revs: list[str], methods: list[str], episodes: int, updates: int, repeats: int,
+       settings: dict[str, dict] | None = None) -> None:
+    """This checkout against each revision, interleaved: robot-steps per CPU-second, the fastest worker each;
+    `settings` (method -> settings, e.g. tuned) override the defaults on every side."""
     with tempfile.TemporaryDirectory() as tmp:
         versions = {"this checkout": ROOT}
         versions.update({rev: unpack_revision(rev, os.path.join(tmp, rev)) for rev in revs})
@@ -122,7 +125,7 @@ def ab(revs: list[str], methods: list[str], episodes: int, updates: int, repeats
         for k in range(repeats):
             for v in (order if k % 2 == 0 else order[::-1]):
                 res = subprocess.run([sys.executable, "-c", WORKER, versions[v], str(episodes), str(updates),
-                                      *methods], check=True, capture_output=True, text=True,
+                                      json.dumps(settings or {}), *methods], check=True, capture_output=True, text=True,
                                      env=dict(os.environ, OMP_NUM_THREADS="1")).stdout
                 for m, rate in json.loads(res.splitlines()[-1]).items():
                     best[v][m] = max(best[v].get(m, 0.0), rate)
@@ -149,7 +152,10 @@ def main() -> None:
     a = ap.parse_args()
     print(f"load average before: {os.getloadavg()[0]:.2f} on {os.cpu_count()} cores")
     if a.rev:
-        ab(a.rev, a.methods, a.episodes, a.updates, a.repeats)
+        tuned = {m: tuned_settings(a.tuned, m) for m in a.methods}
+        print("settings: " + ", ".join(f"{m} {'tuned ' + json.dumps(s) if s else 'defaults'}"
+                                       for m, s in tuned.items()))
+        ab(a.rev, a.methods, a.episodes, a.updates, a.repeats, tuned)
         print(f"load average after: {os.getloadavg()[0]:.2f}")
         return
     print(f"{'method':<16}{'robot-steps/s':>15}{'per CPU-s':>12}{'target':>9}  meets (CPU-s)  settings")

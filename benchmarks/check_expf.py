@@ -1,11 +1,11 @@
 """Exhaustive check: mahn_envs.core.expf against the C library's expf for every one of the 2^32 float32.
 
-Checks the inlined `expf` against the library's, the 8-lane `sigmoid_8` against the scalar sigmoid formula with the
-library's expf, and the CPPN relaxation's vector activations (mahn_evo.cppn.relax: bipolar sigmoid, gaussian and
-sigmoid through `expf_ir` in 64 lanes; sin(2x) through `sinf.sin2x_ir` where |2x| < 120) against their scalar
-formulas with the library's expf and sinf.  Evolution runs stay bit-identical only if they return the library's
-numbers.  Runs a few minutes per check on one core; prints the number of differing inputs (must be 0 for every
-check).
+Checks the inlined `expf` and its 8-lane form `expf_8` (the lean PPO's GRU) against the library's, the 8-lane
+`sigmoid_8` against the scalar sigmoid formula with the library's expf, and the CPPN relaxation's vector activations
+(mahn_evo.cppn.relax: bipolar sigmoid, gaussian and sigmoid through `expf_ir` in 64 lanes; sin(2x) through
+`sinf.sin2x_ir` where |2x| < 120) against their scalar formulas with the library's expf and sinf.  Evolution runs
+stay bit-identical only if they return the library's numbers.  Runs a few minutes per check on one core; prints the
+number of differing inputs (must be 0 for every check).
 Usage: python benchmarks/check_expf.py [--chunk-bits 24]
 """
 from __future__ import annotations
@@ -23,7 +23,7 @@ import math  # noqa: E402
 
 from numba import njit  # noqa: E402
 
-from mahn_envs.core.expf import expf_array, libm_expf_array, libm_sigmoid_array, sigmoid_8_array  # noqa: E402
+from mahn_envs.core.expf import expf_8_array, expf_array, libm_expf_array, libm_sigmoid_array, sigmoid_8_array  # noqa: E402
 from mahn_evo.cppn.relax import LANES, _activate, activate_row  # noqa: E402
 
 
@@ -68,7 +68,8 @@ def main() -> None:
     ap.add_argument("--chunk-bits", type=int, default=24)
     args = ap.parse_args()
     n = 1 << args.chunk_bits
-    checks = [("expf", expf_array, libm_expf_array), ("sigmoid_8", sigmoid_8_array, libm_sigmoid_array)]
+    checks = [("expf", expf_array, libm_expf_array), ("expf_8", expf_8_array, libm_expf_array),
+              ("sigmoid_8", sigmoid_8_array, libm_sigmoid_array)]
     checks += [(f"CPPN {name} lanes", *_check_cppn(code))
                for code, name in ((0, "bipolar sigmoid"), (1, "gaussian"), (3, "sine"), (7, "sigmoid"))]
     for name, ours_fn, lib_fn in checks:

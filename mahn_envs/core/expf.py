@@ -171,6 +171,35 @@ def sigmoid_8(typingctx, dst, dst_at, src, src_at, bias, bias_at, table):
     return sig, codegen
 
 
+@intrinsic
+def expf_8(typingctx, buf, at, table):
+    """buf[at + i] = expf(buf[at + i]) for i = 0..7, in place, float32: `expf` lane by lane in one 8-wide vector
+    (`expf_ir`), for loops over many exponentials (the lean PPO's compiled GRU, baselines/lean/gru_kernel.py).
+    `buf` is a C-contiguous float32 array, `table` is TABLE."""
+    if not (isinstance(buf, types.Array) and buf.dtype == types.float32 and buf.layout == "C"
+            and isinstance(table, types.Array) and table.dtype == types.uint64):
+        return None
+    sig = types.void(buf, types.intp, table)
+
+    def codegen(context, builder, signature, args):
+        vf = ir.VectorType(ir.FloatType(), 8)
+        p_buf = context.make_array(signature.args[0])(context, builder, args[0]).data
+        p_tab = context.make_array(signature.args[2])(context, builder, args[2]).data
+        ptr = builder.bitcast(builder.gep(p_buf, [args[1]], inbounds=True), vf.as_pointer())
+        builder.store(expf_ir(builder, builder.load(ptr, align=4), p_tab), ptr, align=4)
+        return context.get_dummy_value()
+
+    return sig, codegen
+
+
+@njit(cache=True, error_model="numpy")
+def expf_8_array(x, out):
+    """out[i] = expf(x[i]) through `expf_8`, eight at a time (len(x) a multiple of 8; for the checks)."""
+    out[:] = x
+    for i in range(0, x.shape[0], 8):
+        expf_8(out, i, TABLE)
+
+
 def sigmoid_ir(builder: ir.IRBuilder, x: ir.Value, p_tab: ir.Value) -> ir.Value:
     """LLVM IR of the network's sigmoid 1/(1 + expf(-4.9 x)) for a float32 vector x of any width, lane by lane
     (`expf_ir`).  `p_tab` points to TABLE.  The one vector definition of the sigmoid (`sigmoid_8`, the

@@ -1,15 +1,103 @@
 """The compiled GRU recurrence (baselines/lean/gru_kernel.py) against torch's nn.GRU: the same outputs, last state and
-gradients (to float32 rounding), the rollout's no-graph path bit for bit the training path, and the allocator
+gradients (to float32 rounding); its eight-lane passes against the unit-by-unit formula (the same bits); the sgemm
+it calls (baselines/lean/sgemm.py); the rollout's no-graph path bit for bit the training path, and the allocator
 setting (baselines/lean/allocator.py) in effect."""
 import numpy as np
 import pytest
 
 torch = pytest.importorskip("torch")
 pytest.importorskip("threadpoolctl")
+from numba import njit  # noqa: E402
 from torch import nn  # noqa: E402
 
+from baselines.lean import gru_kernel  # noqa: E402
 from baselines.lean.allocator import keep_freed_memory  # noqa: E402
-from baselines.lean.gru_kernel import gru_sequence, limit_blas_threads  # noqa: E402
+from baselines.lean.gru_kernel import blas_scratch, gru_sequence, limit_blas_threads  # noqa: E402
+from baselines.lean.sgemm import _scipy_openblas, _torch_mkl, sgemm, sgemm_row_major  # noqa: E402
+from mahn_envs.core.expf import expf  # noqa: E402
+
+_ONE, _TWO = np.float32(1.0), np.float32(2.0)
+
+
+@njit(cache=True, error_model="numpy")
+def _forward_unit_by_unit(gi, h0, w_hh_t, b_hh, hs, r, z, n, ghn, fn, blas):
+    """The recurrence one unit at a time with the scalar expf (the kernel before its eight-lane passes)."""
+    T, N, H3 = gi.shape
+    H = H3 // 3
+    hs[0] = h0
+    gh = np.empty((N, H3), dtype=np.float32)
+    for t in range(T):
+        gru_kernel._product(fn, hs[t], w_hh_t, gh, blas)
+        for i in range(N):
+            for j in range(H):
+                rr = _ONE / (_ONE + expf(-(gi[t, i, j] + (gh[i, j] + b_hh[j]))))
+                zz = _ONE / (_ONE + expf(-(gi[t, i, H + j] + (gh[i, H + j] + b_hh[H + j]))))
+                g = gh[i, 2 * H + j] + b_hh[2 * H + j]
+                nn_ = _TWO / (_ONE + expf(-_TWO * (gi[t, i, 2 * H + j] + rr * g))) - _ONE
+                r[t, i, j], z[t, i, j], n[t, i, j], ghn[t, i, j] = rr, zz, nn_, g
+                hs[t + 1, i, j] = nn_ + zz * (hs[t, i, j] - nn_)
+
+
+@njit(cache=True, error_model="numpy")
+def _backward_unit_by_unit(dy, dh, w_hh, hs, r, z, n, ghn, dgi, dgh, fn, blas):
+    T, N, H = r.shape
+    back = np.empty((N, H), dtype=np.float32)
+    for t in range(T - 1, -1, -1):
+        for i in range(N):
+            for j in range(H):
+                d = dh[i, j] + dy[t, i, j]
+                zz, nn_, rr = z[t, i, j], n[t, i, j], r[t, i, j]
+                dn = d * (_ONE - zz) * (_ONE - nn_ * nn_)
+                dz = d * (hs[t, i, j] - nn_) * zz * (_ONE - zz)
+                dr = dn * ghn[t, i, j] * rr * (_ONE - rr)
+                dgi[t, i, j], dgi[t, i, H + j], dgi[t, i, 2 * H + j] = dr, dz, dn
+                dgh[t, i, j], dgh[t, i, H + j], dgh[t, i, 2 * H + j] = dr, dz, dn * rr
+                dh[i, j] = d * zz
+        gru_kernel._product(fn, dgh[t], w_hh, back, blas)
+        dh += back
+
+
+@pytest.mark.parametrize("T,N,H,scale", [(30, 5, 16, 1.0), (20, 3, 13, 4.0), (12, 7, 40, 30.0), (3, 2, 5, 1.0)])
+def test_eight_lane_passes_match_the_unit_by_unit_formula_bitwise(T, N, H, scale):
+    """Forward and backward give the bits of the unit-by-unit loops (lanes and tails; saturated gates, inf)."""
+    rng = np.random.default_rng(H)
+    gi = (rng.standard_normal((T, N, 3 * H)) * scale).astype(np.float32)
+    gi[0, 0, :3] = [np.inf, -np.inf, 200.0]
+    h0 = rng.standard_normal((N, H)).astype(np.float32)
+    w = (rng.standard_normal((3 * H, H)) * scale / np.sqrt(H)).astype(np.float32)
+    b = rng.standard_normal(3 * H).astype(np.float32)
+    dy = rng.standard_normal((T, N, H)).astype(np.float32)
+    fn = sgemm()[1]
+    results = []
+    for forward, backward in ((gru_kernel.gru_forward, gru_kernel.gru_backward),
+                              (_forward_unit_by_unit, _backward_unit_by_unit)):
+        hs = np.empty((T + 1, N, H), dtype=np.float32)
+        gates = [np.empty((T, N, H), dtype=np.float32) for _ in range(4)]
+        forward(gi, h0, np.ascontiguousarray(w.T), b, hs, *gates, fn, blas_scratch())
+        dh = np.ones((N, H), dtype=np.float32)
+        dgi, dgh = np.empty((T, N, 3 * H), dtype=np.float32), np.empty((T, N, 3 * H), dtype=np.float32)
+        backward(dy, dh, w, hs, *gates, dgi, dgh, fn, blas_scratch())
+        results.append([hs, *gates, dh, dgi, dgh])
+    for a, c in zip(*results):
+        assert np.array_equal(a.view(np.uint32), c.view(np.uint32))
+    r = results[0][1]
+    assert (r == 1).any() and (r == 0).any()  # saturated gates (expf's special values) were reached
+    # the test can fail: another state gives other bits
+    assert not np.array_equal(results[0][0][2], results[0][0][1])
+
+
+def test_sgemm_is_a_working_blas_product():
+    """The chosen sgemm, torch's MKL where torch has it, and scipy's OpenBLAS all compute numpy's product."""
+    name, fn = sgemm()
+    mkl = _torch_mkl()
+    assert name == ("mkl" if mkl is not None else "openblas")
+    rng = np.random.default_rng(3)
+    a = rng.standard_normal((48, 64)).astype(np.float32)
+    b = rng.standard_normal((64, 192)).astype(np.float32)
+    for f in [fn, _scipy_openblas()] + ([mkl] if mkl is not None else []):
+        c = np.full((48, 192), np.nan, dtype=np.float32)
+        sgemm_row_major(f, a, b, c)
+        np.testing.assert_allclose(c, a @ b, rtol=1e-4, atol=1e-4)
 
 
 def _grads(f, gru, x, h0, gy, gh):

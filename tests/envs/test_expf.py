@@ -1,4 +1,4 @@
-"""The inlined expf and the 8-lane sigmoid return the C library's numbers to the bit.
+"""The inlined expf, its 8-lane form and the 8-lane sigmoid return the C library's numbers to the bit.
 
 benchmarks/check_expf.py checks all 2^32 float32 inputs (0 differ on this machine's glibc); here a few million
 random bit patterns and every special region (overflow, underflow, the slow path's edges, inf, NaN).
@@ -9,6 +9,7 @@ from mahn_envs.core.expf import (
     MAY_UNDERFLOW,
     OVERFLOW,
     UNDERFLOW,
+    expf_8_array,
     expf_array,
     libm_expf_array,
     libm_sigmoid_array,
@@ -47,3 +48,13 @@ def test_sigmoid_8_matches_the_scalar_library_formula_bitwise():
     libm_sigmoid_array(x, lib)
     assert _same(ours, lib)
     assert (lib == 0).any() and (lib == 1).any() and np.isnan(lib).any()
+
+
+def test_expf_8_matches_the_library_bitwise():
+    """The 8-lane expf of the lean PPO's compiled GRU (baselines/lean/gru_kernel.py)."""
+    x = _inputs()
+    ours, lib = np.empty_like(x), np.empty_like(x)
+    expf_8_array(x, ours)
+    libm_expf_array(x, lib)
+    assert _same(ours, lib)
+    assert np.isinf(lib).any() and (lib == 0).any() and (lib.view(np.uint32) == 1).any()
