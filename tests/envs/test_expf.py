@@ -4,6 +4,7 @@ benchmarks/check_expf.py checks all 2^32 float32 inputs (0 differ on this machin
 random bit patterns and every special region (overflow, underflow, the slow path's edges, inf, NaN).
 """
 import numpy as np
+import pytest
 
 from mahn_envs.core.expf import (
     MAY_UNDERFLOW,
@@ -32,10 +33,12 @@ def _same(a: np.ndarray, b: np.ndarray) -> bool:
     return bool(np.all((a.view(np.uint32) == b.view(np.uint32)) | (np.isnan(a) & np.isnan(b))))
 
 
-def test_expf_matches_the_library_bitwise():
+@pytest.mark.parametrize("ours_fn", [expf_array, expf_8_array], ids=["expf", "expf_8"])
+def test_expf_matches_the_library_bitwise(ours_fn):
+    """The scalar expf (the networks, the CPPNs) and its 8-lane form (the lean GRU: baselines/lean/gru_kernel.py)."""
     x = _inputs()
     ours, lib = np.empty_like(x), np.empty_like(x)
-    expf_array(x, ours)
+    ours_fn(x, ours)
     libm_expf_array(x, lib)
     assert _same(ours, lib)
     assert np.isinf(lib).any() and (lib == 0).any() and (lib.view(np.uint32) == 1).any()  # all paths taken
@@ -49,12 +52,3 @@ def test_sigmoid_8_matches_the_scalar_library_formula_bitwise():
     assert _same(ours, lib)
     assert (lib == 0).any() and (lib == 1).any() and np.isnan(lib).any()
 
-
-def test_expf_8_matches_the_library_bitwise():
-    """The 8-lane expf of the lean PPO's compiled GRU (baselines/lean/gru_kernel.py)."""
-    x = _inputs()
-    ours, lib = np.empty_like(x), np.empty_like(x)
-    expf_8_array(x, ours)
-    libm_expf_array(x, lib)
-    assert _same(ours, lib)
-    assert np.isinf(lib).any() and (lib == 0).any() and (lib.view(np.uint32) == 1).any()
