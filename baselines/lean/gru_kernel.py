@@ -36,9 +36,10 @@ _MINUS_TWO = np.float32(-2.0)
 
 
 def limit_blas_threads(n: int) -> None:
-    """Run the BLAS libraries of this process (numpy's, and scipy's that the kernels call) on n threads.  Why:
-    OpenBLAS starts a thread per core for a product as small as one tick's; on a shared 2-core machine that made
-    each product 10x slower (measured: 340 against 32 us)."""
+    """Run the BLAS libraries of this process (numpy's, and scipy's that the kernels call where torch has no MKL)
+    on n threads; torch's MKL, which they call otherwise, follows `torch.set_num_threads` (the callers set both).
+    Why: OpenBLAS starts a thread per core for a product as small as one tick's; on a shared 2-core machine that
+    made each product 10x slower (measured: 340 against 32 us)."""
     threadpool_limits(limits=max(1, int(n)), user_api="blas")
 
 
