@@ -47,6 +47,8 @@ def limit_blas_threads(n: int) -> None:
 def _product(fn, a, b, c, blas):
     """c = a @ b (C-contiguous float32 matrices) through the Fortran sgemm `fn` (`sgemm.sgemm`): column-major
     c^T = b^T a^T.  blas: int64 scratch of 3 (the dimensions), float32 scratch of 2 (1 and 0) and the 'N'."""
+    if not (a.flags.c_contiguous and b.flags.c_contiguous and c.flags.c_contiguous):
+        raise ValueError("the GRU kernel's matrix product takes C-contiguous matrices only")
     dims, scalars, trans = blas
     dims[0] = b.shape[1]
     dims[1] = a.shape[0]

@@ -176,3 +176,14 @@ def test_allocator_setting_applies_on_linux():
     assert ok == sys.platform.startswith("linux") or not ok
     big = np.ones(8_000_000, dtype=np.float32)  # still allocates and frees normally
     assert float(big.sum()) == 8_000_000.0
+
+
+def test_kernel_refuses_a_strided_matrix():
+    """The product reads raw memory through BLAS, so a transposed view (not C-contiguous) is refused, not misread."""
+    T, N, H = 2, 3, 8
+    w = np.ones((3 * H, H), dtype=np.float32)
+    hs = np.zeros((T + 1, N, H), dtype=np.float32)
+    gates = [np.zeros((T, N, H), dtype=np.float32) for _ in range(4)]
+    with pytest.raises(ValueError, match="C-contiguous"):
+        gru_kernel.gru_forward(np.zeros((T, N, 3 * H), dtype=np.float32), np.zeros((N, H), dtype=np.float32), w.T,
+                               np.zeros(3 * H, dtype=np.float32), hs, *gates, sgemm()[1], blas_scratch())
