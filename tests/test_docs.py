@@ -166,16 +166,19 @@ def test_the_confirmation_table_is_made_from_its_record():
     assert module.table(data) in (folder / "README.md").read_text()
 
 
-def test_the_feed_forward_tuning_table_is_made_from_its_journal():
-    """docs/results/baselines/fair_runs/README.md quotes the finished feed-forward study trial by trial as
-    `mahn-baselines tune --table` prints it from the kept journal, word for word."""
+@pytest.mark.parametrize("method,best_row,ending", [
+    ("ppo_ff", "| 30 | completed | **15.45** |", "25 finished trials; 6 cut off by an interruption and run again"),
+    ("ippo_gru", "| 20 | completed | **3.09** |", "25 finished trials; 3 cut off by an interruption and run again"),
+])
+def test_the_finished_tuning_tables_are_made_from_their_journals(method, best_row, ending):
+    """docs/results/baselines/fair_runs/README.md quotes each finished study trial by trial as `mahn-baselines tune
+    --table` prints it from the kept journal, word for word."""
     pytest.importorskip("optuna")
     from baselines.lean.tune import trials_table
 
     folder = ROOT / "docs" / "results" / "baselines" / "fair_runs"
-    table = trials_table(folder / "tune_ppo_ff", "ppo_ff")
-    assert "| 30 | completed | **15.45** |" in table and table.endswith("25 finished trials; 6 cut off by an "
-                                                                            "interruption and run again")
+    table = trials_table(folder / f"tune_{method}", method)
+    assert best_row in table and table.endswith(ending)
     assert table in (folder / "README.md").read_text()
 
 
