@@ -18,7 +18,7 @@ results agree with `nn.GRU` to float32 rounding (tests/baselines/test_gru_kernel
 from __future__ import annotations
 
 import numpy as np
-import scipy.linalg.cython_blas  # noqa: F401  numba's np.dot calls this BLAS: loaded before its threads are limited
+import scipy.linalg.cython_blas  # noqa: F401  scipy's OpenBLAS (the fallback sgemm): loaded before its threads are limited
 import torch
 from llvmlite import ir
 from numba import njit, types
@@ -28,7 +28,7 @@ from torch import nn
 
 from mahn_envs.core.expf import TABLE, expf, expf_8
 
-from .sgemm import sgemm
+from .sgemm import product, scratch, sgemm
 
 _ONE = np.float32(1.0)
 _TWO = np.float32(2.0)
@@ -41,21 +41,6 @@ def limit_blas_threads(n: int) -> None:
     Why: OpenBLAS starts a thread per core for a product as small as one tick's; on a shared 2-core machine that
     made each product 10x slower (measured: 340 against 32 us)."""
     threadpool_limits(limits=max(1, int(n)), user_api="blas")
-
-
-@njit(cache=True, error_model="numpy", inline="always")
-def _product(fn, a, b, c, blas):
-    """c = a @ b (C-contiguous float32 matrices) through the Fortran sgemm `fn` (`sgemm.sgemm`): column-major
-    c^T = b^T a^T.  blas: int64 scratch of 3 (the dimensions), float32 scratch of 2 (1 and 0) and the 'N'."""
-    if not (a.flags.c_contiguous and b.flags.c_contiguous and c.flags.c_contiguous):
-        raise ValueError("the GRU kernel's matrix product takes C-contiguous matrices only")
-    dims, scalars, trans = blas
-    dims[0] = b.shape[1]
-    dims[1] = a.shape[0]
-    dims[2] = a.shape[1]
-    fn(trans.ctypes.data, trans.ctypes.data, dims.ctypes.data, dims[1:].ctypes.data, dims[2:].ctypes.data,
-       scalars.ctypes.data, b.ctypes.data, dims.ctypes.data, a.ctypes.data, dims[2:].ctypes.data,
-       scalars[1:].ctypes.data, c.ctypes.data, dims.ctypes.data)
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -95,22 +80,18 @@ def _cells(gi, gh, b_hh, h_prev, r, z, n, ghn, h_next, arg):
         h_next[j] = nn_ + z[j] * (h_prev[j] - nn_)
 
 
-def blas_scratch() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The `blas` argument of the kernels (see `_product`)."""
-    return (np.zeros(3, dtype=np.int64), np.array([1.0, 0.0], dtype=np.float32), np.array([ord("N")], dtype=np.uint8))
-
-
 @njit(cache=True, error_model="numpy")
-def gru_forward(gi, h0, w_hh_t, b_hh, hs, r, z, n, ghn, fn, blas):
+def gru_forward(gi, h0, w_hh_t, b_hh, hs, r, z, n, ghn, fn):
     """gi (T, N, 3H), h0 (N, H), w_hh_t (H, 3H) = W_hh transposed, b_hh (3H,) -> hs (T+1, N, H) with hs[0] = h0
     and hs[t+1] the state after tick t; r, z, n, ghn (T, N, H) the gates and gh_n, kept for the backward.
-    fn: the sgemm (`sgemm.sgemm`), blas: `blas_scratch()`."""
+    fn: the sgemm (`sgemm.sgemm`)."""
     T, N, H3 = gi.shape
     hs[0] = h0
     gh = np.empty((N, H3), dtype=np.float32)
     arg = np.empty(H3, dtype=np.float32)
+    blas = scratch()
     for t in range(T):
-        _product(fn, hs[t], w_hh_t, gh, blas)
+        product(fn, hs[t], w_hh_t, gh, blas)
         for i in range(N):
             _cells(gi[t, i], gh[i], b_hh, hs[t, i], r[t, i], z[t, i], n[t, i], ghn[t, i], hs[t + 1, i], arg)
 
@@ -160,11 +141,12 @@ def _backward_cells_8(typingctx, dh, dy, z, n, r, h, g, dgi, dgh, j):
 
 
 @njit(cache=True, error_model="numpy")
-def gru_backward(dy, dh, w_hh, hs, r, z, n, ghn, dgi, dgh, fn, blas):
+def gru_backward(dy, dh, w_hh, hs, r, z, n, ghn, dgi, dgh, fn):
     """The gradients of `gru_forward`: dy (T, N, H) of the outputs hs[1:], dh (N, H) of the last state (in; out:
     of h0), w_hh (3H, H) -> dgi and dgh (T, N, 3H), the gradients of gi and of gh = W_hh h + b_hh per tick."""
     T, N, H = r.shape
     back = np.empty((N, H), dtype=np.float32)
+    blas = scratch()
     for t in range(T - 1, -1, -1):
         for i in range(N):
             dh_i, dy_i, z_i, n_i, r_i, h_i, g_i = dh[i], dy[t, i], z[t, i], n[t, i], r[t, i], hs[t, i], ghn[t, i]
@@ -189,7 +171,7 @@ def gru_backward(dy, dh, w_hh, hs, r, z, n, ghn, dgi, dgh, fn, blas):
                 dgh_i[2 * H + j] = dn * rr
                 dh_i[j] = d * zz
                 j += 1
-        _product(fn, dgh[t], w_hh, back, blas)
+        product(fn, dgh[t], w_hh, back, blas)
         dh += back
 
 
@@ -198,7 +180,7 @@ def _run_forward(gi: torch.Tensor, h0: torch.Tensor, w_hh: torch.Tensor, b_hh: t
     """`gru_forward` on torch tensors (h0 (1, N, H)): states into hs (T + 1, N, H), gates into r, z, n, ghn."""
     gru_forward(gi.detach().contiguous().numpy(), h0[0].detach().contiguous().numpy(),
                 w_hh.detach().t().contiguous().numpy(), b_hh.detach().contiguous().numpy(), hs.numpy(), r, z, n, ghn,
-                sgemm()[1], blas_scratch())
+                sgemm()[1])
 
 
 class GRURecurrence(torch.autograd.Function):
@@ -222,7 +204,7 @@ class GRURecurrence(torch.autograd.Function):
         dh = torch.zeros(N, H) if dh_last is None else dh_last[0].contiguous().clone()
         dgi, dgh = torch.empty(T, N, 3 * H), torch.empty(T, N, 3 * H)
         gru_backward(dy.numpy(), dh.numpy(), w_hh.detach().contiguous().numpy(), hs.numpy(), r.numpy(), z.numpy(),
-                     n.numpy(), ghn.numpy(), dgi.numpy(), dgh.numpy(), sgemm()[1], blas_scratch())
+                     n.numpy(), ghn.numpy(), dgi.numpy(), dgh.numpy(), sgemm()[1])
         flat = dgh.view(T * N, 3 * H)
         return dgi, dh[None], flat.t() @ hs[:T].reshape(T * N, H), flat.sum(0)
 

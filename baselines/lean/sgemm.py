@@ -15,17 +15,19 @@ any two BLAS builds.
 from __future__ import annotations
 
 import ctypes
+import functools
 import glob
 import os
 
 import numpy as np
+from numba import njit
 
 _ARGS = [ctypes.c_void_p] * 13
-_cached: dict[str, tuple[str, ctypes._CFuncPtr]] = {}  # type: ignore[name-defined]
 
 
 def _torch_mkl() -> ctypes._CFuncPtr | None:  # type: ignore[name-defined]
-    """torch's MKL `sgemm_`, or None where torch is not built with MKL or does not export it."""
+    """torch's MKL `sgemm_` (its argument types set), or None where torch is not built with MKL or does not export
+    it."""
     try:
         import torch
     except ImportError:
@@ -39,6 +41,7 @@ def _torch_mkl() -> ctypes._CFuncPtr | None:  # type: ignore[name-defined]
             continue
         fn = getattr(lib, "sgemm_", None)
         if fn is not None:
+            fn.argtypes, fn.restype = _ARGS, None
             return fn
     return None
 
@@ -56,39 +59,49 @@ def _scipy_openblas() -> ctypes._CFuncPtr:  # type: ignore[name-defined]
     return ctypes.CFUNCTYPE(None, *_ARGS)(address)
 
 
+@njit(cache=True, error_model="numpy", inline="always")
+def scratch():
+    """The dimensions (int64, read alike by LP64 and ILP64 interfaces), the scalars 1 and 0, and the 'N' (78) that
+    `product` passes by reference: allocated once per kernel call, not per product."""
+    return (np.zeros(3, dtype=np.int64), np.array([1.0, 0.0], dtype=np.float32), np.full(1, 78, dtype=np.uint8))
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def product(fn, a, b, c, blas):
+    """c = a @ b (C-contiguous float32 matrices) through the Fortran sgemm `fn`: column-major c^T = b^T a^T.
+    blas: `scratch()`."""
+    if not (a.flags.c_contiguous and b.flags.c_contiguous and c.flags.c_contiguous):
+        raise ValueError("the GRU kernel's matrix product takes C-contiguous matrices only")
+    dims, scalars, trans = blas
+    dims[0] = b.shape[1]
+    dims[1] = a.shape[0]
+    dims[2] = a.shape[1]
+    fn(trans.ctypes.data, trans.ctypes.data, dims.ctypes.data, dims[1:].ctypes.data, dims[2:].ctypes.data,
+       scalars.ctypes.data, b.ctypes.data, dims.ctypes.data, a.ctypes.data, dims[2:].ctypes.data,
+       scalars[1:].ctypes.data, c.ctypes.data, dims.ctypes.data)
+
+
+@njit(cache=True, error_model="numpy")
+def matmul(fn, a, b, c):
+    """One `product` (for the check below and the tests)."""
+    product(fn, a, b, c, scratch())
+
+
 def _works(fn: ctypes._CFuncPtr) -> bool:  # type: ignore[name-defined]
-    """A product of known matrices through `fn` as the kernels call it (row-major C = A B, dimensions as int64 read
-    as int32 or int64: both interfaces see the same small values) equals numpy's."""
+    """A product of known matrices through `fn` as the kernels call it equals numpy's."""
     rng = np.random.default_rng(0)
     a = rng.standard_normal((3, 5)).astype(np.float32)
     b = rng.standard_normal((5, 4)).astype(np.float32)
     c = np.zeros((3, 4), dtype=np.float32)
-    sgemm_row_major(fn, a, b, c)
+    matmul(fn, a, b, c)
     return bool(np.allclose(c, a @ b, rtol=1e-5, atol=1e-6))
 
 
-def sgemm_row_major(fn: ctypes._CFuncPtr, a: np.ndarray, b: np.ndarray, c: np.ndarray) -> None:  # type: ignore[name-defined]
-    """c = a @ b for C-contiguous float32 matrices through the Fortran `sgemm` fn: column-major c^T = b^T a^T."""
-    m, k = a.shape
-    n = b.shape[1]
-    dims = np.array([n, m, k], dtype=np.int64)
-    trans = np.array([ord("N")], dtype=np.uint8)
-    scalars = np.array([1.0, 0.0], dtype=np.float32)
-    p = ctypes.c_void_p
-    fn.argtypes = _ARGS
-    fn.restype = None
-    fn(p(trans.ctypes.data), p(trans.ctypes.data), p(dims.ctypes.data), p(dims[1:].ctypes.data),
-       p(dims[2:].ctypes.data), p(scalars.ctypes.data), p(b.ctypes.data), p(dims.ctypes.data), p(a.ctypes.data),
-       p(dims[2:].ctypes.data), p(scalars[1:].ctypes.data), p(c.ctypes.data), p(dims.ctypes.data))
-
-
+@functools.cache
 def sgemm() -> tuple[str, ctypes._CFuncPtr]:  # type: ignore[name-defined]
     """(name, function) of the sgemm the compiled GRU calls: "mkl" (torch's) where it is there and works, else
     "openblas" (scipy's).  Chosen once per process."""
-    if "choice" not in _cached:
-        fn = _torch_mkl()
-        if fn is not None:
-            fn.argtypes, fn.restype = _ARGS, None
-        choice = ("mkl", fn) if fn is not None and _works(fn) else ("openblas", _scipy_openblas())
-        _cached["choice"] = choice
-    return _cached["choice"]
+    fn = _torch_mkl()
+    if fn is not None and _works(fn):
+        return "mkl", fn
+    return "openblas", _scipy_openblas()

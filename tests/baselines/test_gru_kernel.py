@@ -12,22 +12,22 @@ from torch import nn  # noqa: E402
 
 from baselines.lean import gru_kernel  # noqa: E402
 from baselines.lean.allocator import keep_freed_memory  # noqa: E402
-from baselines.lean.gru_kernel import blas_scratch, gru_sequence, limit_blas_threads  # noqa: E402
-from baselines.lean.sgemm import _scipy_openblas, _torch_mkl, sgemm, sgemm_row_major  # noqa: E402
+from baselines.lean.gru_kernel import gru_sequence, limit_blas_threads  # noqa: E402
+from baselines.lean.sgemm import _scipy_openblas, _torch_mkl, matmul, product, scratch, sgemm  # noqa: E402
 from mahn_envs.core.expf import expf  # noqa: E402
 
 _ONE, _TWO = np.float32(1.0), np.float32(2.0)
 
 
 @njit(cache=True, error_model="numpy")
-def _forward_unit_by_unit(gi, h0, w_hh_t, b_hh, hs, r, z, n, ghn, fn, blas):
+def _forward_unit_by_unit(gi, h0, w_hh_t, b_hh, hs, r, z, n, ghn, fn):
     """The recurrence one unit at a time with the scalar expf (the kernel before its eight-lane passes)."""
     T, N, H3 = gi.shape
     H = H3 // 3
     hs[0] = h0
     gh = np.empty((N, H3), dtype=np.float32)
     for t in range(T):
-        gru_kernel._product(fn, hs[t], w_hh_t, gh, blas)
+        product(fn, hs[t], w_hh_t, gh, scratch())
         for i in range(N):
             for j in range(H):
                 rr = _ONE / (_ONE + expf(-(gi[t, i, j] + (gh[i, j] + b_hh[j]))))
@@ -39,7 +39,7 @@ def _forward_unit_by_unit(gi, h0, w_hh_t, b_hh, hs, r, z, n, ghn, fn, blas):
 
 
 @njit(cache=True, error_model="numpy")
-def _backward_unit_by_unit(dy, dh, w_hh, hs, r, z, n, ghn, dgi, dgh, fn, blas):
+def _backward_unit_by_unit(dy, dh, w_hh, hs, r, z, n, ghn, dgi, dgh, fn):
     T, N, H = r.shape
     back = np.empty((N, H), dtype=np.float32)
     for t in range(T - 1, -1, -1):
@@ -53,7 +53,7 @@ def _backward_unit_by_unit(dy, dh, w_hh, hs, r, z, n, ghn, dgi, dgh, fn, blas):
                 dgi[t, i, j], dgi[t, i, H + j], dgi[t, i, 2 * H + j] = dr, dz, dn
                 dgh[t, i, j], dgh[t, i, H + j], dgh[t, i, 2 * H + j] = dr, dz, dn * rr
                 dh[i, j] = d * zz
-        gru_kernel._product(fn, dgh[t], w_hh, back, blas)
+        product(fn, dgh[t], w_hh, back, scratch())
         dh += back
 
 
@@ -73,10 +73,10 @@ def test_eight_lane_passes_match_the_unit_by_unit_formula_bitwise(T, N, H, scale
                               (_forward_unit_by_unit, _backward_unit_by_unit)):
         hs = np.empty((T + 1, N, H), dtype=np.float32)
         gates = [np.empty((T, N, H), dtype=np.float32) for _ in range(4)]
-        forward(gi, h0, np.ascontiguousarray(w.T), b, hs, *gates, fn, blas_scratch())
+        forward(gi, h0, np.ascontiguousarray(w.T), b, hs, *gates, fn)
         dh = np.ones((N, H), dtype=np.float32)
         dgi, dgh = np.empty((T, N, 3 * H), dtype=np.float32), np.empty((T, N, 3 * H), dtype=np.float32)
-        backward(dy, dh, w, hs, *gates, dgi, dgh, fn, blas_scratch())
+        backward(dy, dh, w, hs, *gates, dgi, dgh, fn)
         results.append([hs, *gates, dh, dgi, dgh])
     for a, c in zip(*results):
         assert np.array_equal(a.view(np.uint32), c.view(np.uint32))
@@ -96,7 +96,7 @@ def test_sgemm_is_a_working_blas_product():
     b = rng.standard_normal((64, 192)).astype(np.float32)
     for f in [fn, _scipy_openblas()] + ([mkl] if mkl is not None else []):
         c = np.full((48, 192), np.nan, dtype=np.float32)
-        sgemm_row_major(f, a, b, c)
+        matmul(f, a, b, c)
         np.testing.assert_allclose(c, a @ b, rtol=1e-4, atol=1e-4)
 
 
@@ -186,4 +186,4 @@ def test_kernel_refuses_a_strided_matrix():
     gates = [np.zeros((T, N, H), dtype=np.float32) for _ in range(4)]
     with pytest.raises(ValueError, match="C-contiguous"):
         gru_kernel.gru_forward(np.zeros((T, N, 3 * H), dtype=np.float32), np.zeros((N, H), dtype=np.float32), w.T,
-                               np.zeros(3 * H, dtype=np.float32), hs, *gates, sgemm()[1], blas_scratch())
+                               np.zeros(3 * H, dtype=np.float32), hs, *gates, sgemm()[1])
