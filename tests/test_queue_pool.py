@@ -52,13 +52,19 @@ def test_the_lanes_share_the_final_runs_each_once_after_its_tuning(tmp_path):
         (runs / "fair" / f"tune_{method}" / "tuning_cost.json").write_text(
             json.dumps({"trials_completed": done - 2, "trials_pruned": 2}))
         (runs / "fair" / f"tune_{method}" / "best.json").write_text('{"hidden": 8}')
-    for seed in (1, 3, 4):  # runs finished in an earlier session are not run again
+    for seed in (1, 3):  # runs finished in an earlier session are not run again
         (runs / "fair" / f"ppo_ff_seed{seed}").mkdir()
         (runs / "fair" / f"ppo_ff_seed{seed}" / "summary.json").write_text(json.dumps({"steps": 200_000_000}))
+    # nor one only kept in the repository (archived to fair_runs/, its parked copy removed): queue.sh looks there
+    # from its own folder, HERE (docs/results/in_progress)
+    kept = tmp_path / "docs" / "results" / "baselines" / "fair_runs" / "ppo_ff_seed4"
+    kept.mkdir(parents=True)
+    (kept / "summary.json").write_text(json.dumps({"steps": 200_082_432}))
+    (tmp_path / "docs" / "results" / "in_progress").mkdir()
     (runs / "fair" / "ippo_gru_seed0").mkdir()  # one that stopped short of its budget is resumed
     (runs / "fair" / "ippo_gru_seed0" / "summary.json").write_text(json.dumps({"steps": 5_000_000}))
     finish = """echo '{"trials_completed": 23, "trials_pruned": 2}' > fair/tune_ippo_gru/tuning_cost.json"""
-    script = _functions() + f"""
+    script = f"HERE={tmp_path / 'docs' / 'results' / 'in_progress'}\n" + _functions() + f"""
 rm -rf fair/.claims && mkdir -p fair/.claims
 touch fair/.claims/tuning_ippo_gru fair/.claims/tuning_mappo_gru  # both tunings running, as `tune` marks them
 # IPPO's tuning ends while the lanes wait; MAPPO's stops unfinished (a crash): nobody will tune it this session
