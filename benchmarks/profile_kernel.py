@@ -10,7 +10,7 @@ block run of 16-lane float32 arithmetic with the sigmoid's table gathers, the ra
 divisions, the decisions and encodings the runs that load the random streams' constants.
 
 Workloads: `controllers` (BatchSim.run_controllers on the published situational champions, as `bench_ab.py
---teams champions`) or `trainer` (the trainer's evaluations of generations 0..G, `--init iros2011`, pop 500).
+--teams champions`) or `trainer` (the trainer's first G generations, `--init iros2011`, pop 500).
 Usage: python benchmarks/profile_kernel.py [--workload controllers|trainer] [--noise generalization] [--episodes 4]
        [--generations 20] [--repeats 8] [--top 25]
 Needs Linux `perf` (Debian's linux-perf).  One numba thread.

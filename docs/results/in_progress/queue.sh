@@ -55,7 +55,7 @@ def steps(path):
     except (OSError, ValueError, KeyError, TypeError):
         return 0
 sys.exit(0 if max(steps(sys.argv[1] + '/summary.json'), steps(sys.argv[3])) >= float(sys.argv[2]) else 1)" \
-      "$1" "$2" "${HERE:-.}/../baselines/fair_runs/$(basename "$1")/summary.json"
+      "$1" "$2" "$HERE/../baselines/fair_runs/$(basename "$1")/summary.json"
 }
 
 tune() {  # method $1's tuning, marked as running (fair/.claims/tuning_$1) while it runs, for final_pool
