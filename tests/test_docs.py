@@ -169,6 +169,7 @@ def test_the_confirmation_table_is_made_from_its_record():
 @pytest.mark.parametrize("method,best_row,ending", [
     ("ppo_ff", "| 30 | completed | **15.45** |", "25 finished trials; 6 cut off by an interruption and run again"),
     ("ippo_gru", "| 20 | completed | **3.09** |", "25 finished trials; 3 cut off by an interruption and run again"),
+    ("mappo_gru", "| 28 | completed | **42.53** |", "25 finished trials; 4 cut off by an interruption and run again"),
 ])
 def test_the_finished_tuning_tables_are_made_from_their_journals(method, best_row, ending):
     """docs/results/baselines/fair_runs/README.md quotes each finished study trial by trial as `mahn-baselines tune

@@ -107,7 +107,10 @@ def tune(method: str, out: str | Path, trials: int = DEFAULT_TRIALS, steps: int 
     out.mkdir(parents=True, exist_ok=True)
     storage = _journal(out / STUDY_FILE)
     name = study_name(method)
-    study = optuna.create_study(study_name=name, storage=storage, direction="maximize", load_if_exists=True)
+    if name in optuna.get_all_study_names(storage):  # loading writes nothing: a finished study's file stays as kept
+        study = optuna.load_study(study_name=name, storage=storage)
+    else:
+        study = optuna.create_study(study_name=name, storage=storage, direction="maximize")
     for t in study.get_trials(deepcopy=False, states=(TrialState.RUNNING,)):  # cut off by an interruption
         study.tell(t.number, state=TrialState.FAIL)
         study.enqueue_trial(t.params)

@@ -71,5 +71,8 @@ def test_the_journal_alone_carries_the_tuning_cost(tmp_path):
     before = tune("ppo_ff", tmp_path, trials=2, steps=1, base=TINY, log=lambda s: None)
     assert before["robot_steps"] > 0
     shutil.rmtree(tmp_path / "trials")
+    kept = (tmp_path / STUDY_FILE).read_bytes()
     after = tune("ppo_ff", tmp_path, trials=2, steps=1, base=TINY, log=lambda s: None)  # nothing left to run
     assert after == before
+    # the queue calls a finished study's tuning again every session: its kept journal must not change
+    assert (tmp_path / STUDY_FILE).read_bytes() == kept
