@@ -178,7 +178,8 @@ def test_a_parked_lean_run_resumes_elsewhere_to_the_same_run(park, tmp_path):
 
 def test_park_all_parks_what_a_session_ran(park, tmp_path, monkeypatch):
     """The session's closing step: experiments parked before are parked again (one never parked is named, not
-    parked), the lean PPO runs of fair/ are parked, and the tuning journals kept unless the kept one is longer."""
+    parked), the lean PPO runs of fair/ are parked (but one finished and kept in fair_runs/), and the tuning
+    journals kept unless the kept one is longer."""
     pytest.importorskip("torch")
     from baselines.lean.config import LeanConfig
     from baselines.lean.ppo import train
@@ -199,6 +200,9 @@ def test_park_all_parks_what_a_session_ran(park, tmp_path, monkeypatch):
     t._checkpoint()
     train(LeanConfig(method="ppo_ff", seed=3, max_cycles=60, signal_tick=30, n_episodes=2, hidden=8,
                      eval_maps=["plus"], steps=360), host / "fair" / "ppo_ff_seed3")
+    shutil.copytree(host / "fair" / "ppo_ff_seed3", host / "fair" / "ppo_ff_seed0")  # finished and kept:
+    (tmp_path / "fair_runs" / "ppo_ff_seed0").mkdir(parents=True)                     # not parked again
+    (tmp_path / "fair_runs" / "ppo_ff_seed0" / "summary.json").write_text("{}")
     for name, lines in (("tune_ppo_ff", 3), ("tune_mappo_gru", 2)):
         (host / "fair" / name).mkdir()
         (host / "fair" / name / "study.jsonl").write_text("{}\n" * lines)
@@ -208,6 +212,7 @@ def test_park_all_parks_what_a_session_ran(park, tmp_path, monkeypatch):
     park.park_all(host, log=said.append)
     assert "other: not parked before (park it by name once, if it is to be kept)" in said
     assert "tune_mappo_gru: the kept journal is further along (5 > 2 lines): kept" in said
+    assert "ppo_ff_seed0: finished and kept in fair_runs/, not parked" in said
     rows = park.listing()
     assert [(r.get("experiment"), r.get("generations")) for r in rows if "experiment" in r] == [("exp", 2)]
     assert [(r["run"], r["updates"]) for r in rows if "lean_runs" in r] == [("ppo_ff_seed3", 1)]

@@ -32,7 +32,7 @@ import re
 import shutil
 import sys
 import zipfile
-from collections.abc import Callable
+from collections.abc import Callable, Collection
 from pathlib import Path
 
 from mahn_evo.experiment.plan import PLAN_FILE, ExperimentPlan
@@ -189,9 +189,10 @@ def restore(name: str, experiment: Path, log=print) -> None:
     _restore_runs(runs(source), experiment / "runs", generations, "generations", log)
 
 
-def park_lean(folder: Path, name: str, force: bool = False, log=print) -> Path:
-    """`park` for the lean PPO runs in `folder`: progress in updates, a run in use refused."""
-    found = lean_runs(folder)
+def park_lean(folder: Path, name: str, force: bool = False, log=print, skip: Collection[str] = ()) -> Path:
+    """`park` for the lean PPO runs in `folder` (but those named in `skip`): progress in updates, a run in use
+    refused."""
+    found = [run for run in lean_runs(folder) if run.name not in skip]
     if not found:
         raise ValueError(f"{str(folder)!r} holds no lean PPO run folder")
     target = parked_folder(name)
@@ -241,8 +242,13 @@ def park_all(runs_dir: Path, log=print) -> None:
         else:
             log(f"{exp.name}: not parked before (park it by name once, if it is to be kept)")
     fair = runs_dir / "fair"
-    if lean_runs(fair):
-        log(f"parked {park_lean(fair, 'fair', log=log)}")
+    # a finished run kept in fair_runs/ (archive.py) is not parked again: queue.sh counts it as finished, and its
+    # parked copy (a checkpoint included) would only sit in the repository
+    kept = {run.name for run in lean_runs(fair) if (TUNING / run.name / "summary.json").exists()}
+    for name in sorted(kept):
+        log(f"{name}: finished and kept in {TUNING.name}/, not parked")
+    if len(lean_runs(fair)) > len(kept):
+        log(f"parked {park_lean(fair, 'fair', log=log, skip=kept)}")
     for path in park_tuning(fair, log=log):
         log(f"kept {path}")
 
