@@ -184,7 +184,7 @@ def test_park_all_parks_what_a_session_ran(park, tmp_path, monkeypatch):
     from baselines.lean.config import LeanConfig
     from baselines.lean.ppo import train
 
-    monkeypatch.setattr(park, "TUNING", tmp_path / "fair_runs")
+    monkeypatch.setattr(park, "FAIR_RUNS", tmp_path / "fair_runs")
     host = tmp_path / "runs"
     plan = ExperimentPlan(**SMALL)
     plan.save_or_check(host / "exp")

@@ -208,17 +208,17 @@ def restore_lean(name: str, folder: Path, log=print) -> None:
     _restore_runs(found, folder, updates, "updates", log)
 
 
-#: issue 12's tuning studies, kept as their journals (docs/results/baselines/fair_runs/README.md)
-TUNING = HERE.parent / "baselines" / "fair_runs"
+#: where issue 12's finished runs and tuning journals are kept (docs/results/baselines/fair_runs/README.md)
+FAIR_RUNS = HERE.parent / "baselines" / "fair_runs"
 TUNING_FILES = ("study.jsonl", "best.json", "tuning_cost.json")
 
 
 def park_tuning(fair: Path, log=print) -> list[Path]:
-    """Copy each RUNS/fair/tune_*/ journal (and its best.json, tuning_cost.json) into TUNING, unless the kept
+    """Copy each RUNS/fair/tune_*/ journal (and its best.json, tuning_cost.json) into FAIR_RUNS, unless the kept
     journal has more lines (trials recorded) than this one; returns the files written."""
     written = []
     for study in sorted(fair.glob("tune_*/study.jsonl")):
-        kept = TUNING / study.parent.name
+        kept = FAIR_RUNS / study.parent.name
         lines = len(study.read_text(encoding="utf-8").splitlines())
         if (kept / "study.jsonl").exists():
             kept_lines = len((kept / "study.jsonl").read_text(encoding="utf-8").splitlines())
@@ -244,10 +244,11 @@ def park_all(runs_dir: Path, log=print) -> None:
     fair = runs_dir / "fair"
     # a finished run kept in fair_runs/ (archive.py) is not parked again: queue.sh counts it as finished, and its
     # parked copy (a checkpoint included) would only sit in the repository
-    kept = {run.name for run in lean_runs(fair) if (TUNING / run.name / "summary.json").exists()}
+    found = lean_runs(fair)
+    kept = {run.name for run in found if (FAIR_RUNS / run.name / "summary.json").exists()}
     for name in sorted(kept):
-        log(f"{name}: finished and kept in {TUNING.name}/, not parked")
-    if len(lean_runs(fair)) > len(kept):
+        log(f"{name}: finished and kept in {FAIR_RUNS.name}/, not parked")
+    if len(found) > len(kept):
         log(f"parked {park_lean(fair, 'fair', log=log, skip=kept)}")
     for path in park_tuning(fair, log=log):
         log(f"kept {path}")
