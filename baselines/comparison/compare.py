@@ -25,7 +25,7 @@ such curve and is left out of that plot.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Collection, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -44,6 +44,9 @@ TICKS = 1364
 #: generation of their common budget (IPOP-CMA-ES: 499,300-500,000 teams), and without it the last budgets of the
 #: grid would average over the runs that happened to end last (12 of 15 solved read as 14 of 15)
 END_TOLERANCE = 0.01
+
+#: a lean PPO run's sampling-policy rows (`sampled_curve`) are named after its method with this suffix
+SAMPLED_SUFFIX = "_sampled"
 
 
 @dataclass
@@ -154,7 +157,7 @@ def sampled_curve(run_dir: str | Path) -> Curve | None:
     except ValueError as e:
         raise ValueError(f"{path}: a value is not a number ({e})") from None
     b, f, s, c = _best_so_far(steps, fitness, solved, _cpu_column(rows, str(path)))
-    return Curve(f"{cfg['algo']}_sampled", cfg["seed"], b, f, s, str(run_dir), cpu=c)
+    return Curve(f"{cfg['algo']}{SAMPLED_SUFFIX}", cfg["seed"], b, f, s, str(run_dir), cpu=c)
 
 
 def rl_curves(run_dir: str | Path) -> list[Curve]:
@@ -283,15 +286,34 @@ def markdown_table(rows: Sequence[dict[str, Any]]) -> str:
     return "\n".join(lines)
 
 
+def method_styles(methods: Collection[str]) -> dict[str, tuple[str, str]]:
+    """Each method's (colour, line style), given once for every figure of a comparison.
+
+    Why: the compute-matched figure holds fewer methods than the robot-steps one (published curves carry no
+    seconds), so colours assigned figure by figure gave one method two colours on one page. A lean PPO run's
+    greedy and sampling policies are one run read two ways: they share a colour, the greedy one dashed."""
+    bases = sorted({m.removesuffix(SAMPLED_SUFFIX) for m in methods})
+    palette = [f"C{i % 10}" for i in range(len(bases))]
+    colour = dict(zip(bases, palette))
+    return {m: (colour[m.removesuffix(SAMPLED_SUFFIX)],
+                "-" if m.endswith(SAMPLED_SUFFIX) or f"{m}{SAMPLED_SUFFIX}" not in methods else "--")
+            for m in methods}
+
+
 def plot(curves: Sequence[Curve], budgets: np.ndarray, path: Path,
-         xlabel: str = "budget (robot-steps = teams x 1364 ticks x 3 robots)") -> None:
+         xlabel: str = "budget (robot-steps = teams x 1364 ticks x 3 robots)",
+         styles: dict[str, tuple[str, str]] | None = None) -> None:
+    """Mean best-so-far fitness (band: one standard deviation) and solved rate against `budgets`; `styles` (from
+    `method_styles`, default: the methods of `curves`) keeps a method's colour the same across figures."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     fig, (ax_f, ax_s) = plt.subplots(1, 2, figsize=(11, 4.2))
+    styles = styles or method_styles({c.method for c in curves})
     for method in sorted({c.method for c in curves}):
+        colour, ls = styles[method]
         runs = [c for c in curves if c.method == method]
         end = max(c.budget[-1] for c in runs)  # a line ends where the method's runs end (held runs run on)
         agg = [r for r in aggregate(runs, budgets)
@@ -299,9 +321,9 @@ def plot(curves: Sequence[Curve], budgets: np.ndarray, path: Path,
         x = np.array([r["budget_robot_steps"] for r in agg], dtype=float)
         mean = np.array([r["fitness_mean"] for r in agg], dtype=float)
         std = np.array([r["fitness_std"] for r in agg], dtype=float)
-        ax_f.plot(x, mean, marker="o", ms=3, label=method)
-        ax_f.fill_between(x, mean - std, mean + std, alpha=0.2)
-        ax_s.plot(x, [r["solved_rate"] for r in agg], marker="o", ms=3, label=method)
+        ax_f.plot(x, mean, marker="o", ms=3, label=method, color=colour, ls=ls)
+        ax_f.fill_between(x, mean - std, mean + std, alpha=0.2, color=colour)
+        ax_s.plot(x, [r["solved_rate"] for r in agg], marker="o", ms=3, label=method, color=colour, ls=ls)
     for ax, ylabel in ((ax_f, "best team fitness so far (training map)"), (ax_s, "solved rate (fraction of seeds)")):
         ax.set_xscale("log")
         ax.set_xlabel(xlabel)
@@ -342,11 +364,14 @@ def compare(rl_runs: Sequence[str | Path], evo_runs: Sequence[str | Path], out: 
          "cpu_seconds": None if c.cpu is None else c.cpu.tolist(), "holds_after_end": c.holds_after_end}
         for c in curves]}
     write_json(out / "comparison.json", payload)
-    plot(curves, budgets, out / "comparison.png")
+    styles = method_styles({c.method for c in curves})
+    plot(curves, budgets, out / "comparison.png", styles=styles)
     on_cpu = [v for v in (c.on_cpu() for c in curves) if v is not None]
     if on_cpu:  # compute-matched: the same best-so-far values against the seconds each run spent
-        plot(on_cpu, budget_grid(on_cpu, points), out / "comparison_cpu.png",
-             xlabel="CPU-seconds per run (HyperNEAT: seconds of a single-threaded run)")
+        xlabel = "CPU-seconds per run"
+        if any(c.method.startswith("hyperneat") for c in on_cpu):
+            xlabel += " (HyperNEAT: seconds of a single-threaded run)"
+        plot(on_cpu, budget_grid(on_cpu, points), out / "comparison_cpu.png", xlabel=xlabel, styles=styles)
     return payload
 
 

@@ -180,3 +180,29 @@ def test_runs_that_end_within_a_generation_of_each_other_are_read_at_their_ends(
     assert float(last["solved_rate"]) == pytest.approx(1 / 3, abs=1e-4)
     assert payload["table"][0]["solved_rate"] == pytest.approx(0.333, abs=1e-3)
     assert math.isnan(evo_curve(runs[0]).at(499_300 * 1364 * 3 * 1.02)[0])  # well beyond its end: no claim
+
+
+def test_a_method_keeps_its_colour_in_both_figures(tmp_path, monkeypatch) -> None:
+    """The compute-matched figure holds fewer methods (published curves carry no seconds); colours given figure by
+    figure gave a method two colours on one page. A greedy policy and its sampling policy share a colour."""
+    from baselines.comparison import compare as module
+
+    styles = module.method_styles({"hyperneat_situational", "ippo_gru", "ippo_gru_sampled", "ppo"})
+    assert styles["ippo_gru"][0] == styles["ippo_gru_sampled"][0]
+    assert styles["ippo_gru"][1] == "--" and styles["ippo_gru_sampled"][1] == "-" and styles["ppo"][1] == "-"
+    assert len({styles[m][0] for m in ("hyperneat_situational", "ippo_gru", "ppo")}) == 3
+    drawn = []
+    real_plot = module.plot
+    monkeypatch.setattr(module, "plot", lambda curves, budgets, path, **kw: (
+        drawn.append(({c.method for c in curves}, kw["styles"])), real_plot(curves, budgets, path, **kw))[1])
+    evo = [_evo_run(tmp_path, "situational", s, [(100, 50.0, 0), (200, 150.0 + s, 1)], solved=True) for s in (1, 2)]
+    compare([], evo, tmp_path / "first", points=4)  # its curves carry no seconds once published
+    run = _lean_run(tmp_path, 0, [(0, 2.0), (1000, 2.1)], [(1000, 9.0, 0.1), (2000, 15.0, 0.2)])
+    from baselines.comparison.compare import published_curves
+
+    drawn.clear()
+    compare([run], [], tmp_path / "out", points=4,
+            published=published_curves(tmp_path / "first" / "comparison.json", ["hyperneat_situational"]))
+    (steps_methods, steps_styles), (cpu_methods, cpu_styles) = drawn
+    assert cpu_methods == {"ippo_gru", "ippo_gru_sampled"} < steps_methods
+    assert cpu_styles == steps_styles
