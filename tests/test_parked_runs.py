@@ -202,7 +202,13 @@ def test_park_all_parks_what_a_session_ran(park, tmp_path, monkeypatch):
                      eval_maps=["plus"], steps=360), host / "fair" / "ppo_ff_seed3")
     shutil.copytree(host / "fair" / "ppo_ff_seed3", host / "fair" / "ppo_ff_seed0")  # finished and kept:
     (tmp_path / "fair_runs" / "ppo_ff_seed0").mkdir(parents=True)                     # not parked again
-    (tmp_path / "fair_runs" / "ppo_ff_seed0" / "summary.json").write_text("{}")
+    shutil.copy2(host / "fair" / "ppo_ff_seed3" / "summary.json", tmp_path / "fair_runs" / "ppo_ff_seed0")
+    (host / "fair" / "ppo_ff_seed0" / "summary.json").unlink()  # here short of its end, kept finished: finished
+    # `finished`, as queue.sh asks it (exit status): by the run's summary here or by its kept copy's, at the budget
+    assert park.main(["finished", str(host / "fair" / "ppo_ff_seed3"), "360"]) == 0
+    assert park.main(["finished", str(host / "fair" / "ppo_ff_seed3"), "361"]) == 1
+    assert park.main(["finished", str(host / "fair" / "ppo_ff_seed0"), "360"]) == 0
+    assert park.main(["finished", str(host / "fair" / "ppo_ff_seed9"), "1"]) == 1  # no such run
     for name, lines in (("tune_ppo_ff", 3), ("tune_mappo_gru", 2)):
         (host / "fair" / name).mkdir()
         (host / "fair" / name / "study.jsonl").write_text("{}\n" * lines)

@@ -61,6 +61,7 @@ def test_the_lanes_share_the_final_runs_each_once_after_its_tuning(tmp_path):
     kept.mkdir(parents=True)
     (kept / "summary.json").write_text(json.dumps({"steps": 200_082_432}))
     (tmp_path / "docs" / "results" / "in_progress").mkdir()
+    shutil.copy2(QUEUE.parent / "park.py", tmp_path / "docs" / "results" / "in_progress")  # finished() asks it
     (runs / "fair" / "ippo_gru_seed0").mkdir()  # one that stopped short of its budget is resumed
     (runs / "fair" / "ippo_gru_seed0" / "summary.json").write_text(json.dumps({"steps": 5_000_000}))
     finish = """echo '{"trials_completed": 23, "trials_pruned": 2}' > fair/tune_ippo_gru/tuning_cost.json"""

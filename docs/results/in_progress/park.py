@@ -22,6 +22,9 @@ runs resume from their checkpoints bit for bit (the trainer's resume is exact, a
       one is parked the first time by name), the lean PPO runs of RUNS_DIR/fair, and the tuning journals of
       RUNS_DIR/fair/tune_* into docs/results/baselines/fair_runs/ (a journal with fewer lines than the kept one,
       e.g. a fresh host's, is never copied over it)
+  python docs/results/in_progress/park.py finished RUN_FOLDER BUDGET
+      exit status 0 when the lean run has reached BUDGET robot-steps, here or in its copy kept in
+      docs/results/baselines/fair_runs/ (queue.sh asks before it starts a final run), else 1
   python docs/results/in_progress/park.py list
       each parked experiment's runs: generations, finished or not; each parked lean run's updates
 """
@@ -35,10 +38,8 @@ import zipfile
 from collections.abc import Callable, Collection
 from pathlib import Path
 
-from mahn_evo.experiment.plan import PLAN_FILE, ExperimentPlan
-from mahn_evo.experiment.table import load_runs
-from mahn_evo.storage.files import read_checked_json, read_versioned_json
-from mahn_evo.storage.folder_lock import lock_holder
+# mahn_evo is imported where it is used: importing it takes seconds (it loads the env), and queue.sh calls
+# `finished`, which needs none of it, for each final run it considers
 
 HERE = Path(__file__).resolve().parent
 #: what a run writes that a resume does not need or that belongs to one machine
@@ -49,6 +50,8 @@ NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]*")
 
 def generations(run: Path) -> int:
     """Generations a run folder has finished (0 without a checkpoint); a damaged checkpoint is an error."""
+    from mahn_evo.storage.files import read_checked_json
+
     ckpt = run / "checkpoint.json"
     if not ckpt.exists():
         return 0
@@ -58,6 +61,8 @@ def generations(run: Path) -> int:
 def updates(run: Path) -> int:
     """Updates a lean PPO run folder has finished (0 without a checkpoint); a damaged checkpoint, or one whose
     weights file is missing or unreadable, is an error."""
+    from mahn_evo.storage.files import read_versioned_json
+
     ckpt = run / "checkpoint.json"
     if not ckpt.exists():
         return 0
@@ -117,6 +122,8 @@ def _park_runs(found: list[Path], target: Path, progress: Callable[[Path], int],
                log) -> None:
     """Copy each run of `found` into target/<name>, unless the parked copy is further along (`force` replaces
     it); `progress` counts a run's checkpointed steps in `unit` (and checks the checkpoint)."""
+    from mahn_evo.storage.folder_lock import lock_holder
+
     busy = [run.name for run in found if lock_holder(run) is not None]
     if busy:
         raise ValueError(f"run(s) {busy} of {str(found[0].parent)!r} are in use: stop them before parking")
@@ -136,6 +143,8 @@ def _restore_runs(found: list[Path], dest: Path, progress: Callable[[Path], int]
     """Copy each parked run of `found` into dest/<name>, but for a run in use here, one further along (left as it
     is) and one as far along (left as it is, the parked files it lacks copied in: e.g. the report's final
     validation of a finished run is here, not in its parked copy)."""
+    from mahn_evo.storage.folder_lock import lock_holder
+
     dest.mkdir(parents=True, exist_ok=True)
     for run in found:
         here = dest / run.name
@@ -168,6 +177,8 @@ def _fill_missing(run: Path, here: Path) -> int:
 
 
 def park(experiment: Path, name: str, force: bool = False, log=print) -> Path:
+    from mahn_evo.experiment.plan import PLAN_FILE
+
     target = parked_folder(name)
     if not (experiment / PLAN_FILE).exists():
         raise ValueError(f"{str(experiment)!r} holds no experiment ({PLAN_FILE} missing)")
@@ -180,6 +191,8 @@ def park(experiment: Path, name: str, force: bool = False, log=print) -> Path:
 
 
 def restore(name: str, experiment: Path, log=print) -> None:
+    from mahn_evo.experiment.plan import PLAN_FILE
+
     source = parked_folder(name)
     if not (source / PLAN_FILE).exists():
         raise ValueError(f"no parked experiment {name!r} in {HERE}")
@@ -213,6 +226,27 @@ FAIR_RUNS = HERE.parent / "baselines" / "fair_runs"
 TUNING_FILES = ("study.jsonl", "best.json", "tuning_cost.json")
 
 
+def summary_steps(run: Path) -> float:
+    """Robot-steps a lean run folder's summary.json records (a run writes it when it reaches its budget); 0 when
+    it has none or it cannot be read."""
+    try:
+        return float(json.loads((run / "summary.json").read_text(encoding="utf-8"))["steps"])
+    except (OSError, ValueError, KeyError, TypeError):
+        return 0.0
+
+
+def kept(run: Path) -> bool:
+    """Whether lean run `run` is finished and kept in FAIR_RUNS (archive.py keeps only finished runs, with their
+    summary; the parked copy is then removed)."""
+    return summary_steps(FAIR_RUNS / run.name) > 0
+
+
+def finished(run: Path, budget: float) -> bool:
+    """Whether lean run `run` has reached `budget` robot-steps, here or in its kept copy: the one rule by which
+    queue.sh's final_pool leaves a run alone and park_all leaves it unparked."""
+    return max(summary_steps(run), summary_steps(FAIR_RUNS / run.name)) >= budget
+
+
 def park_tuning(fair: Path, log=print) -> list[Path]:
     """Copy each RUNS/fair/tune_*/ journal (and its best.json, tuning_cost.json) into FAIR_RUNS, unless the kept
     journal has more lines (trials recorded) than this one; returns the files written."""
@@ -236,6 +270,8 @@ def park_tuning(fair: Path, log=print) -> list[Path]:
 def park_all(runs_dir: Path, log=print) -> None:
     """`park` every experiment of runs_dir already parked, `park_lean` its fair/ runs, `park_tuning` its
     journals: the session's closing step."""
+    from mahn_evo.experiment.plan import PLAN_FILE
+
     for exp in sorted(p for p in runs_dir.iterdir() if (p / PLAN_FILE).exists()):
         if (HERE / exp.name / PLAN_FILE).exists():
             log(f"parked {park(exp, exp.name, log=log)}")
@@ -245,17 +281,20 @@ def park_all(runs_dir: Path, log=print) -> None:
     # a finished run kept in fair_runs/ (archive.py) is not parked again: queue.sh counts it as finished, and its
     # parked copy (a checkpoint included) would only sit in the repository
     found = lean_runs(fair)
-    kept = {run.name for run in found if (FAIR_RUNS / run.name / "summary.json").exists()}
-    for name in sorted(kept):
+    done = {run.name for run in found if kept(run)}
+    for name in sorted(done):
         log(f"{name}: finished and kept in {FAIR_RUNS.name}/, not parked")
-    if len(found) > len(kept):
-        log(f"parked {park_lean(fair, 'fair', log=log, skip=kept)}")
+    if len(found) > len(done):
+        log(f"parked {park_lean(fair, 'fair', log=log, skip=done)}")
     for path in park_tuning(fair, log=log):
         log(f"kept {path}")
 
 
 def listing() -> list[dict]:
     """Every parked run, finished or not by its experiment's plan (mahn_evo.experiment.table.load_runs)."""
+    from mahn_evo.experiment.plan import PLAN_FILE, ExperimentPlan
+    from mahn_evo.experiment.table import load_runs
+
     out = []
     for exp in sorted(p for p in HERE.iterdir() if NAME.fullmatch(p.name) and (p / PLAN_FILE).exists()):
         for record in load_runs(ExperimentPlan.load(exp), exp):
@@ -290,6 +329,8 @@ def main(argv: list[str]) -> int:
         if len(argv) == 2 and argv[0] == "park-all" and not force:
             park_all(Path(argv[1]))
             return 0
+        if len(argv) == 3 and argv[0] == "finished" and not force:
+            return 0 if finished(Path(argv[1]), float(argv[2])) else 1
         if argv == ["list"] and not force:
             for row in listing():
                 print(json.dumps(row))

@@ -47,15 +47,7 @@ sys.exit(0 if c['trials_completed'] + c['trials_pruned'] >= int(sys.argv[2]) els
 }
 
 finished() {  # 0 when lean run folder $1 has reached its budget of $2 robot-steps, here or in its kept copy
-  # (docs/results/baselines/fair_runs/<run>: a finished run is archived there and its parked copy removed)
-  python -c "import json, sys
-def steps(path):
-    try:
-        return json.load(open(path))['steps']
-    except (OSError, ValueError, KeyError, TypeError):
-        return 0
-sys.exit(0 if max(steps(sys.argv[1] + '/summary.json'), steps(sys.argv[3])) >= float(sys.argv[2]) else 1)" \
-      "$1" "$2" "$HERE/../baselines/fair_runs/$(basename "$1")/summary.json"
+  python "$HERE/park.py" finished "$1" "$2"
 }
 
 tune() {  # method $1's tuning, marked as running (fair/.claims/tuning_$1) while it runs, for final_pool
