@@ -251,7 +251,9 @@ REFERENCE_METHOD = "hyperneat_situational"
 
 def final_table(curves: Sequence[Curve]) -> list[dict[str, Any]]:
     """Per method at each run's full budget: seeds, budget, fitness mean/std/max, IQM with a 95% bootstrap
-    interval, solved rate, and Fisher's exact p-value of the solved rate against `REFERENCE_METHOD`."""
+    interval, solved rate, Fisher's exact p-value of the solved rate against `REFERENCE_METHOD`, and the median
+    CPU-seconds a run spent (blank for a method whose runs log none, e.g. published curves): the robot-steps
+    budget says what each method was given, the seconds what it cost on this machine."""
     from .stats import fisher_solved, iqm, iqm_ci
 
     out = []
@@ -272,7 +274,9 @@ def final_table(curves: Sequence[Curve]) -> list[dict[str, Any]]:
                     "fitness_iqm_ci95": f"{lo:.3f}-{hi:.3f}", "solved_rate": round(float(s.mean()), 3),
                     "median_budget_to_solve": int(np.median(first)) if first else "",
                     f"fisher_p_vs_{REFERENCE_METHOD}": "" if ref is None or method == REFERENCE_METHOD
-                    else round(fisher_solved(*finals[method], *ref), 4)})
+                    else round(fisher_solved(*finals[method], *ref), 4),
+                    "median_cpu_seconds": round(float(np.median(spent))) if (spent := [
+                        float(c.cpu.max()) for c in runs if c.cpu is not None and c.cpu.size]) else ""})
     return out
 
 

@@ -115,6 +115,8 @@ def test_compute_matched_curves_use_cpu_seconds_and_hyperneat_seconds(tmp_path) 
     assert (tmp_path / "out" / "comparison_cpu.png").stat().st_size > 0
     by_method = {c["method"]: c for c in payload["curves"]}
     assert by_method["ppo_ff"]["cpu_seconds"] == [2.0, 5.0] and by_method["dqn"]["cpu_seconds"] is None
+    spent = {r["method"]: r["median_cpu_seconds"] for r in payload["table"]}
+    assert spent == {"ppo_ff": 5, "dqn": "", "hyperneat_situational": 4}  # what each run spent in all, median over runs
 
 
 def test_published_curves_join_a_comparison_as_they_were(tmp_path) -> None:
