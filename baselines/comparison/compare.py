@@ -268,6 +268,7 @@ def final_table(curves: Sequence[Curve]) -> list[dict[str, Any]]:
         first = [c.budget[int(np.argmax(c.solved > 0))] for c in runs if np.any(c.solved > 0)]
         lo, hi = iqm_ci(f)
         ref = finals.get(REFERENCE_METHOD)
+        spent = [float(c.cpu.max()) for c in runs if c.cpu is not None and c.cpu.size]  # each run's CPU-seconds
         out.append({"method": method, "runs": len(runs), "budget_robot_steps": int(max(c.budget[-1] for c in runs)),
                     "fitness_mean": round(float(f.mean()), 3), "fitness_std": round(float(f.std()), 3),
                     "fitness_max": round(float(f.max()), 3), "fitness_iqm": round(iqm(f), 3),
@@ -275,8 +276,7 @@ def final_table(curves: Sequence[Curve]) -> list[dict[str, Any]]:
                     "median_budget_to_solve": int(np.median(first)) if first else "",
                     f"fisher_p_vs_{REFERENCE_METHOD}": "" if ref is None or method == REFERENCE_METHOD
                     else round(fisher_solved(*finals[method], *ref), 4),
-                    "median_cpu_seconds": round(float(np.median(spent))) if (spent := [
-                        float(c.cpu.max()) for c in runs if c.cpu is not None and c.cpu.size]) else ""})
+                    "median_cpu_seconds": round(float(np.median(spent))) if spent else ""})
     return out
 
 

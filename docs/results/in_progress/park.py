@@ -242,8 +242,9 @@ def kept(run: Path) -> bool:
 
 
 def finished(run: Path, budget: float) -> bool:
-    """Whether lean run `run` has reached `budget` robot-steps, here or in its kept copy: the one rule by which
-    queue.sh's final_pool leaves a run alone and park_all leaves it unparked."""
+    """Whether lean run `run` has reached `budget` robot-steps, here or in its kept copy: the rule by which
+    queue.sh's final_pool leaves a run alone (park_all asks only `kept`: a run finished here but not yet kept is
+    parked, so it is not lost)."""
     return max(summary_steps(run), summary_steps(FAIR_RUNS / run.name)) >= budget
 
 
