@@ -14,6 +14,12 @@ set -u
 HERE=$(cd "$(dirname "$0")" && pwd)
 RUNS=${1:-runs}
 if [ -d "${PYTHONPATH:-}" ]; then export PYTHONPATH=$(cd "$PYTHONPATH" && pwd); fi  # absolute, before the cd below
+# on a machine without the rl extra every RL step would fail and each lane go on to the next (stop 55's first start
+# on a new host): refuse to start instead, saying what to install
+if ! python -c "import optuna, torch" 2> /dev/null; then
+  echo "$(date -u) queue.sh: issue 12's steps need the rl extra: pip install torch==2.13.0 && pip install -e '.[rl]'; not started" >&2
+  exit 2
+fi
 mkdir -p "$RUNS" && cd "$RUNS"
 echo $$ > queue.pid  # the process group to stop: this script leads it (started with setsid)
 for name in robot15; do
