@@ -80,3 +80,22 @@ touch fair/.claims/tuning_ippo_gru fair/.claims/tuning_mappo_gru  # both tunings
     assert sorted(taken[2:]) == [("ippo_gru", s) for s in range(5)]  # then IPPO's, once its tuning ended;
     # MAPPO's wait for a tuning nobody runs any more: the lanes return (to their next work) without them
     assert {lane for _, _, lane in calls} == {"a", "b"}  # both lanes worked, each run taken once
+
+
+@pytest.mark.skipif(shutil.which("bash") is None, reason="needs bash")
+def test_the_queue_refuses_to_start_without_the_rl_extra(tmp_path):
+    """Where `import optuna, torch` fails (a new machine without the rl extra), queue.sh exits 2 saying what to
+    install, before it creates the runs folder or restores anything: otherwise every RL step fails and each lane
+    goes on to the next (stop 55)."""
+    shim = tmp_path / "bin"
+    shim.mkdir()
+    (shim / "python").write_text("#!/usr/bin/env bash\n"
+                                 "[ \"$1\" = \"-c\" ] && case \"$2\" in *optuna*) exit 1;; esac\n"
+                                 f"exec {sys.executable} \"$@\"\n")
+    (shim / "python").chmod(0o755)
+    runs = tmp_path / "runs"
+    env = {**os.environ, "PATH": f"{shim}{os.pathsep}{os.environ['PATH']}"}
+    done = subprocess.run(["bash", str(QUEUE), str(runs)], env=env, capture_output=True, text=True, timeout=60)
+    assert done.returncode == 2
+    assert "pip install -e '.[rl]'" in done.stderr and "not started" in done.stderr
+    assert not runs.exists()
